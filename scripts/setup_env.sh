@@ -43,7 +43,7 @@ if [ "$(cat "$msg_stamp" 2>/dev/null)" != "$src_hash" ]; then
   echo "$src_hash" > "$msg_stamp"
 fi
 # The physics package itself, editable, so `gear-rotor-sim` and imports work from the venv.
-if ! .venv/bin/python -c "import gear_rotor_sim" 2>/dev/null; then
-  .venv/bin/pip install -q --no-deps --no-build-isolation -e .
+if ! (cd / && "$ROOT/.venv/bin/python" -c "import gear_rotor_sim") 2>/dev/null; then
+  .venv/bin/pip install -q --no-deps -e .
 fi
 echo "[setup] ready: . scripts/env.sh to use ROS from this checkout"
