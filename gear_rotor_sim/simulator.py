@@ -1,0 +1,464 @@
+"""Streaming simulator: ``advance(duration) -> SampleBlock`` with speed/temperature ramps and effects.
+
+Orchestration only; the per-step work is the compiled exact Newmark map of
+:mod:`gear_rotor_sim.solver`. See docs/solver.md for the method, the dt rule and the decimation.
+
+Time grids
+----------
+Output sample ``i`` is at ``t = i / output_rate_hz``. The integration step is
+``dt = 1 / (k * output_rate_hz)`` with the integer ``k`` the smallest for which
+``dt <= T_mesh / steps_per_mesh`` at the highest speed of the coming chunk (speed floor
+``DT_RULE_SPEED_FLOOR_RPM``). ``k`` is raised as soon as needed and lowered only when 25 % too large
+(hysteresis); it changes only on output-grid instants. The anti-aliasing FIR is centred (zero phase),
+so the integration runs its group delay (about 25 output periods) ahead of the last emitted sample;
+new set-points apply from the integration time.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.solver.decimate import StreamDecimator
+from gear_rotor_sim.solver.newmark import (
+    MAX_STEPS_PER_MESH,
+    MIN_STEPS_PER_MESH,
+    NewmarkStepper,
+    SimulationDiverged,
+    SolverState,
+    StepContext,
+    available_channels,
+    check_steps_per_mesh,
+    mesh_frequency_hz,
+    parse_channels,
+    quantize_speed_rpm,
+    static_equilibrium,
+)
+from gear_rotor_sim.system_data import AssembledSystem
+
+__all__ = ["Effect", "SimulationDiverged", "Simulator", "StepContext"]
+
+#: Temperature quantum of the system cache, C (a ramp rebuilds the system at these steps).
+TEMPERATURE_QUANTUM_C = 0.5
+#: The dt rule uses at least this speed (dt at standstill stays bounded).
+DT_RULE_SPEED_FLOOR_RPM = 60.0
+#: Highest accepted integration rate; an output rate above it is refused.
+MAX_INTEGRATION_RATE_HZ = 2.0e7
+MAX_SPEED_RPM = 1.0e5
+_MAX_CHUNK_STEPS = 65536
+
+
+class Effect(Protocol):
+    """Calibration effect hook (docs/design.md); any method may return None."""
+
+    name: str
+
+    def mesh_stiffness_factor(self, ctx: StepContext) -> np.ndarray | None: ...
+
+    def transmission_error(self, ctx: StepContext) -> np.ndarray | None: ...
+
+    def external_forces(self, system: AssembledSystem) -> np.ndarray | None: ...
+
+    def force_amplitudes(self, ctx: StepContext) -> np.ndarray | None: ...
+
+    def modify_config(self, cfg: Any) -> Any: ...
+
+
+@dataclass
+class _Ramp:
+    """value(t) moves from ``v0`` at ``t0`` toward ``target`` at ``rate`` per second."""
+
+    t0: float
+    v0: float
+    target: float
+    rate: float
+
+    def value(self, t: np.ndarray | float) -> np.ndarray:
+        dt = np.asarray(t, float) - self.t0
+        d = self.target - self.v0
+        if d == 0.0 or self.rate == np.inf:
+            return np.full(np.shape(dt), self.target) if np.ndim(dt) else np.asarray(self.target)
+        tr = abs(d) / self.rate
+        return np.where(dt >= tr, self.target, self.v0 + np.sign(d) * self.rate * dt)
+
+    def integral(self, t: np.ndarray) -> np.ndarray:
+        """Integral of value from t0 to t."""
+        dt = np.asarray(t, float) - self.t0
+        d = self.target - self.v0
+        if d == 0.0 or self.rate == np.inf:
+            return self.target * dt
+        tr = abs(d) / self.rate
+        a = np.sign(d) * self.rate
+        ramp = self.v0 * np.minimum(dt, tr) + 0.5 * a * np.minimum(dt, tr) ** 2
+        return ramp + self.target * np.maximum(dt - tr, 0.0)
+
+    def time_to_reach(self, level: float) -> float:
+        """Time after t0 at which the value crosses ``level`` (inf if never)."""
+        d = self.target - self.v0
+        if d == 0.0 or self.rate == np.inf:
+            return np.inf
+        x = (level - self.v0) / (np.sign(d) * self.rate)
+        if x < 0 or (level - self.v0) * (self.target - level) < 0:
+            return np.inf
+        return float(x)
+
+
+def _default_builder(cfg: Any, temperature_c: float) -> AssembledSystem:
+    from gear_rotor_sim.system import GearRotorSystem  # assembly module (physics core)
+
+    return GearRotorSystem.from_config(cfg, temperature_c)
+
+
+class Simulator:
+    """Streaming nonlinear simulator of the gear-rotor-bearing system (Eq 39).
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The rig (effects' ``modify_config`` are applied to it first).
+    speed_rpm, temperature_c : float
+        Initial operating point (also the initial targets); the state starts at static equilibrium.
+    output_rate_hz : float
+        Sample rate of the returned blocks.
+    channels : sequence of str, optional
+        Channel names (``Simulator.available_channels(cfg)``); None: ``dte``, ``mesh_force``, all
+        bearing forces and the pinion-node accelerations x, y.
+    steps_per_mesh : int
+        Minimum integration steps per mesh period (8..4096); default 32 (docs/solver.md).
+    speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
+        Ramp rates toward new targets (> 0; ``inf`` jumps).
+    effects : sequence of Effect
+    system_builder : callable, optional
+        ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
+    """
+
+    def __init__(
+        self,
+        cfg: Any,
+        speed_rpm: float = 3000.0,
+        temperature_c: float = 25.0,
+        output_rate_hz: float = 20000.0,
+        channels: Sequence[str] | None = None,
+        steps_per_mesh: int = 32,
+        speed_ramp_rpm_per_s: float = 2000.0,
+        temperature_ramp_c_per_s: float = 20.0,
+        effects: Sequence[Effect] = (),
+        *,
+        system_builder: Callable[[Any, float], AssembledSystem] | None = None,
+        force_dense: bool = False,
+    ) -> None:
+        _check_speed(speed_rpm)
+        _check_temperature(temperature_c)
+        if not (np.isfinite(output_rate_hz) and 0 < output_rate_hz <= MAX_INTEGRATION_RATE_HZ):
+            raise ValueError(
+                f"output_rate_hz: {output_rate_hz!r} must be in (0, {MAX_INTEGRATION_RATE_HZ:g}] "
+                "(it cannot exceed the highest integration rate)"
+            )
+        check_steps_per_mesh(steps_per_mesh)
+        for name, rate in (
+            ("speed_ramp_rpm_per_s", speed_ramp_rpm_per_s),
+            ("temperature_ramp_c_per_s", temperature_ramp_c_per_s),
+        ):
+            if not rate > 0:  # also rejects NaN
+                raise ValueError(f"{name}: {rate!r} must be > 0 (inf for a jump)")
+        self.effects = tuple(effects)
+        for eff in self.effects:
+            fn = getattr(eff, "modify_config", None)
+            if fn is not None:
+                cfg = fn(cfg)
+        self.cfg = cfg
+        self._builder = system_builder or _default_builder
+        self.output_rate_hz = float(output_rate_hz)
+        self.steps_per_mesh = int(steps_per_mesh)
+        self.speed_ramp = float(speed_ramp_rpm_per_s)
+        self.temperature_ramp = float(temperature_ramp_c_per_s)
+        self._force_dense = force_dense
+        self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
+        tq = self._tq(temperature_c)
+        system = self._build(tq)
+        names = list(channels) if channels is not None else self.default_channels(system)
+        self.specs = parse_channels(system, names)
+        self._systems[tq] = (system, NewmarkStepper(system, self.specs, self.effects, force_dense))
+        self.channels = tuple(names)
+        self.units = tuple(s.unit for s in self.specs)
+        system, stepper = self._system(tq)
+        self._state: SolverState = static_equilibrium(system, self.effects)
+        self._speed = _Ramp(0.0, float(speed_rpm), float(speed_rpm), self.speed_ramp)
+        self._angle0 = 0.0  # input-shaft angle at the start of the current speed ramp, rad
+        self._temp = _Ramp(0.0, float(temperature_c), float(temperature_c), self.temperature_ramp)
+        self._tq_cur = tq
+        self._k = self._k_required(speed_rpm, speed_rpm, system)
+        self._seg_t0 = 0.0  # time of raw index 0 of the current raw segment
+        self._raw = 0  # raw steps done in the segment
+        self._omega_q = -1.0
+        self._activate(stepper, self._state, speed_rpm)
+        init = np.concatenate([stepper.initial_outputs(self._state), [speed_rpm, temperature_c]])
+        self._dec = StreamDecimator(self._k, init)
+        self._n_out = 0
+        self.last_chunk_stats: dict[str, float] = {}
+
+    # ----------------------------------------------------------------------------------- helpers
+    @staticmethod
+    def default_channels(system: AssembledSystem) -> list[str]:
+        names: list[str] = []
+        if system.meshes:
+            names += ["dte", "mesh_force"]
+        for b in system.bearings:
+            names += [f"bearing{b.number}_f{c}" for c in "xyz"]
+        if system.meshes:
+            node = system.meshes[0].pinion_node0 + 1
+            names += [f"node{node}_ax", f"node{node}_ay"]
+        return names
+
+    @staticmethod
+    def available_channels(
+        cfg: Any,
+        system_builder: Callable[[Any, float], AssembledSystem] | None = None,
+        temperature_c: float | None = None,
+    ) -> list[tuple[str, str]]:
+        """All channel names with units for a rig."""
+        builder = system_builder or _default_builder
+        t = getattr(cfg, "reference_temperature_c", 25.0) if temperature_c is None else temperature_c
+        return available_channels(builder(cfg, float(t)))
+
+    @staticmethod
+    def _tq(temperature_c: float) -> float:
+        return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
+
+    def _build(self, tq: float) -> AssembledSystem:
+        try:
+            return self._builder(self.cfg, tq)
+        except ValueError as exc:
+            msg = str(exc)
+            raise ValueError(
+                msg if msg.startswith("temperature_c") else f"temperature_c: {tq}: {msg}"
+            ) from exc
+
+    def _system(self, tq: float) -> tuple[AssembledSystem, NewmarkStepper]:
+        hit = self._systems.get(tq)
+        if hit is None:
+            system = self._build(tq)
+            hit = (system, NewmarkStepper(system, self.specs, self.effects, self._force_dense))
+            self._systems[tq] = hit
+            if len(self._systems) > 8:
+                self._systems.popitem(last=False)
+        else:
+            self._systems.move_to_end(tq)
+        return hit
+
+    def _k_required(self, s0: float, s1: float, system: AssembledSystem) -> int:
+        f = mesh_frequency_hz(system, max(s0, s1, DT_RULE_SPEED_FLOOR_RPM))
+        if f <= 0:  # no mesh: resolve the first torsional/bending modes instead, at least 4x
+            return 4
+        return max(1, int(np.ceil(self.steps_per_mesh * f / self.output_rate_hz * (1 - 1e-12))))
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / (self._k * self.output_rate_hz)
+
+    def _activate(self, stepper: NewmarkStepper, st: SolverState, speed_rpm: float) -> None:
+        self._stepper = stepper
+        self._omega_q = quantize_speed_rpm(speed_rpm) * 2.0 * np.pi / 60.0
+        stepper.set_operating_point(self._omega_q, self.dt, st)
+
+    # ------------------------------------------------------------------------------- public API
+    @property
+    def time_s(self) -> float:
+        """Time of the next output sample, s (the end of the stream so far)."""
+        return self._n_out / self.output_rate_hz
+
+    @property
+    def _raw_time(self) -> float:
+        return self._seg_t0 + self._raw * self.dt
+
+    @property
+    def speed_rpm(self) -> float:
+        return float(self._speed.value(self._raw_time))
+
+    @property
+    def temperature_c(self) -> float:
+        return float(self._temp.value(self._raw_time))
+
+    @property
+    def target_speed_rpm(self) -> float:
+        return self._speed.target
+
+    @property
+    def target_temperature_c(self) -> float:
+        return self._temp.target
+
+    @property
+    def targets(self) -> tuple[float, float]:
+        return self._speed.target, self._temp.target
+
+    @property
+    def state(self) -> SolverState:
+        return self._state.copy()
+
+    def set_targets(self, speed_rpm: float | None = None, temperature_c: float | None = None) -> None:
+        """New set-points, approached at the ramp rates from the current integration time."""
+        t = self._raw_time
+        if speed_rpm is not None:
+            _check_speed(speed_rpm)
+            self._angle0 += float(self._speed.integral(t)) * (2.0 * np.pi / 60.0)
+            self._speed = _Ramp(t, float(self._speed.value(t)), float(speed_rpm), self.speed_ramp)
+        if temperature_c is not None:
+            _check_temperature(temperature_c)
+            self._system(self._tq(temperature_c))  # material policy check now, not mid-stream
+            self._temp = _Ramp(t, float(self._temp.value(t)), float(temperature_c), self.temperature_ramp)
+
+    def advance(self, duration: float) -> SampleBlock:
+        """Integrate and return the output samples with times in [time_s, time_s + duration)."""
+        if not (np.isfinite(duration) and duration >= 0):
+            raise ValueError(f"duration: {duration!r} must be finite and >= 0")
+        wall0 = time.perf_counter()
+        n_target = int(np.ceil((self.time_s + duration) * self.output_rate_hz - 1e-9))
+        n_emit = n_target - self._n_out
+        blocks: list[np.ndarray] = []
+        got = 0
+        steps = n_loss = n_back = 0
+        while got < n_emit:
+            need_raw = (n_target - 1) * 1.0 / self.output_rate_hz  # last output time
+            dt = self.dt
+            t_raw = self._raw_time
+            n_steps = int(np.ceil((need_raw - t_raw) / dt - 1e-9)) + self._dec.delay
+            n_steps = max(n_steps, 1)
+            n_steps = self._limit_chunk(n_steps, t_raw, dt)
+            y, loss, back = self._run_steps(n_steps)
+            steps += n_steps
+            n_loss += loss
+            n_back += back
+            if y.shape[0]:
+                take = min(y.shape[0], n_emit - got)
+                blocks.append(y[:take])
+                got += take
+                if take < y.shape[0]:
+                    self._pending = y[take:]
+            self._maybe_regrid()
+        data = np.concatenate(blocks) if blocks else np.zeros((0, len(self.channels) + 2))
+        first = self._n_out
+        self._n_out += data.shape[0]
+        nch = len(self.channels)
+        self.last_chunk_stats = {
+            "contact_loss_fraction": n_loss / max(steps, 1),
+            "back_contact_fraction": n_back / max(steps, 1),
+            "steps": float(steps),
+            "wall_s": time.perf_counter() - wall0,
+            "dt_s": self.dt,
+            "decimation": float(self._k),
+            "mesh_solve_failures": float(self._stepper.n_mesh_fail),
+        }
+        return SampleBlock(
+            first / self.output_rate_hz,
+            self.output_rate_hz,
+            self.channels,
+            self.units,
+            np.ascontiguousarray(data[:, :nch]),
+            first,
+            data[:, nch].copy(),
+            data[:, nch + 1].copy(),
+        )
+
+    # ------------------------------------------------------------------------------- internals
+    _pending: np.ndarray | None = None
+
+    def _limit_chunk(self, n_steps: int, t_raw: float, dt: float) -> int:
+        n = min(n_steps, _MAX_CHUNK_STEPS)
+        # stop at the next quantum change of speed (gyroscopic basis) or temperature (system rebuild)
+        s_now = float(self._speed.value(t_raw))
+        if s_now != self._speed.target:
+            sq = quantize_speed_rpm(s_now)
+            up = self._speed.target > s_now
+            step = 1 + 0.5 * 0.0025
+            level = (sq * step if up else sq / step) if sq > 0 else (0.5 if up else -1.0)
+            tt = self._speed.time_to_reach(level) + self._speed.t0 - t_raw
+            if np.isfinite(tt):
+                n = min(n, max(1, int(np.ceil(tt / dt))))
+        tc = float(self._temp.value(t_raw))
+        if tc != self._temp.target:
+            up = self._temp.target > tc
+            level = self._tq(tc) + (0.5 if up else -0.5) * TEMPERATURE_QUANTUM_C
+            tt = self._temp.time_to_reach(level) + self._temp.t0 - t_raw
+            if np.isfinite(tt):
+                n = min(n, max(1, int(np.ceil(tt / dt))))
+        # chunks end on the output grid so that the decimation factor can change there
+        k = self._k
+        end = self._raw + n
+        end = -(-end // k) * k
+        return end - self._raw
+
+    def _run_steps(self, n: int) -> tuple[np.ndarray, int, int]:
+        if self._pending is not None:
+            y0 = self._pending
+            self._pending = None
+        else:
+            y0 = None
+        t_raw = self._raw_time
+        # operating point at the chunk start (quantised)
+        s_now = float(self._speed.value(t_raw))
+        tq = self._tq(float(self._temp.value(t_raw)))
+        if tq != self._tq_cur:
+            x_state = self._state
+            _, stepper = self._system(tq)
+            self._tq_cur = tq
+            self._activate(stepper, x_state, s_now)
+        else:
+            oq = quantize_speed_rpm(s_now) * 2.0 * np.pi / 60.0
+            if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:
+                self._activate(self._stepper, self._state, s_now)
+        dt = self.dt
+        j = np.arange(self._raw - 1, self._raw + n + 1, dtype=float)
+        t = self._seg_t0 + j * dt
+        speed = self._speed.value(t) * (2.0 * np.pi / 60.0)
+        # angle anchored at the ramp start: the same values whatever the chunking
+        angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
+        temp = self._temp.value(t[1:-1])
+        ch, _, _, _, states, _ = self._stepper.run(t, angle, speed, self._state)
+        self._raw += n
+        raw = np.column_stack([ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp])
+        y = self._dec.push(raw)
+        if y0 is not None:
+            y = np.concatenate([y0, y])
+        loss = back = 0
+        if states.shape[1]:
+            loss = int(np.count_nonzero(states[:, 0] == 0))
+            back = int(np.count_nonzero(states[:, 0] < 0))
+        return y, loss, back
+
+    def _maybe_regrid(self) -> None:
+        if self._raw % self._k:
+            return
+        t = self._raw_time
+        system = self._systems[self._tq_cur][0]
+        s_now = float(self._speed.value(t))
+        s_end = float(self._speed.value(t + 0.05))
+        k_req = self._k_required(s_now, s_end, system)
+        if k_req > self._k or k_req <= 0.75 * self._k:
+            self._dec.regrid(k_req, self._raw)
+            self._seg_t0 = t
+            self._raw = 0
+            self._k = k_req
+            self._activate(self._stepper, self._state, s_now)
+        elif self._raw > 1 << 40:
+            self._dec.rebase(self._raw)
+            self._seg_t0 = t
+            self._raw = 0
+
+
+def _check_speed(speed_rpm: float) -> None:
+    if not (np.isfinite(speed_rpm) and 0.0 <= speed_rpm <= MAX_SPEED_RPM):
+        raise ValueError(f"speed_rpm: {speed_rpm!r} must be finite and in 0..{MAX_SPEED_RPM:g}")
+
+
+def _check_temperature(temperature_c: float) -> None:
+    if not np.isfinite(temperature_c):
+        raise ValueError(f"temperature_c: {temperature_c!r} must be finite (material range per policy)")
+
+
+_ = (MIN_STEPS_PER_MESH, MAX_STEPS_PER_MESH)

@@ -1,0 +1,37 @@
+"""Nonlinear Newmark solver: exact modal trapezoidal map (set-up in ``newmark``, kernels in ``kernels``)."""
+
+from gear_rotor_sim.solver.newmark import (
+    DTE_BOUND_M,
+    MIN_STEPS_PER_MESH,
+    SPEED_QUANTUM_REL,
+    LinearModel,
+    NewmarkStepper,
+    SimulationDiverged,
+    SolverState,
+    SteadyResult,
+    StepContext,
+    available_channels,
+    mesh_law,
+    parse_channels,
+    quantize_speed_rpm,
+    simulate_steady,
+    static_equilibrium,
+)
+
+__all__ = [
+    "DTE_BOUND_M",
+    "MIN_STEPS_PER_MESH",
+    "SPEED_QUANTUM_REL",
+    "LinearModel",
+    "NewmarkStepper",
+    "SimulationDiverged",
+    "SolverState",
+    "SteadyResult",
+    "StepContext",
+    "available_channels",
+    "mesh_law",
+    "parse_channels",
+    "quantize_speed_rpm",
+    "simulate_steady",
+    "static_equilibrium",
+]

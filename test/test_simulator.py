@@ -1,0 +1,161 @@
+"""Streaming simulator: continuity, ramps, decimation, effects hook, bad input (independent truths)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from scipy.signal import freqz
+from test_solver import make_system
+
+from gear_rotor_sim.simulator import Simulator
+from gear_rotor_sim.solver.decimate import design_taps
+from gear_rotor_sim.solver.newmark import LinearModel, quantize_speed_rpm
+from gear_rotor_sim.system_data import AssembledSystem
+
+
+def _builder(**kw: object):
+    def build(cfg: object, temperature_c: float) -> AssembledSystem:
+        if not 0.0 <= temperature_c <= 300.0:
+            raise ValueError(f"temperature_c: {temperature_c} is outside the material range 0..300 C")
+        return make_system(temperature_c=temperature_c, **kw)  # type: ignore[arg-type]
+
+    return build
+
+
+def test_two_chunks_equal_one_run() -> None:
+    a = Simulator(None, 3000.0, 25.0, 20000.0, system_builder=_builder())
+    b = Simulator(None, 3000.0, 25.0, 20000.0, system_builder=_builder())
+    x = np.concatenate([a.advance(0.1).data, a.advance(0.1).data])
+    y = b.advance(0.2).data
+    assert x.shape == y.shape == (4000, 16)
+    assert np.max(np.abs(x - y) / (np.max(np.abs(y), axis=0) + 1e-300)) < 1e-12
+
+
+def test_speed_ramp_has_no_discontinuity() -> None:
+    sim = Simulator(
+        None,
+        2000.0,
+        25.0,
+        20000.0,
+        channels=["dte", "bearing1_fx"],
+        speed_ramp_rpm_per_s=20000.0,
+        system_builder=_builder(stiffness_amp=0.0, te_amplitude=2e-6, half_backlash=0.0),
+    )
+    sim.advance(0.05)
+    sim.set_targets(speed_rpm=4000.0)
+    blk = sim.advance(0.15)
+    assert blk.speed_rpm[-1] == pytest.approx(4000.0, rel=1e-9)
+    assert sim.last_chunk_stats["decimation"] >= 2
+    d = np.diff(blk.channel("dte"))
+    # many basis switches (0.25 % speed quanta) and decimation changes happened during the ramp; the
+    # largest sample-to-sample step is bounded by the signal's own slope (a steady harmonic of the same
+    # amplitude at the top speed: 2 * A * sin(pi f / fs))
+    amp = np.max(np.abs(blk.channel("dte") - np.mean(blk.channel("dte"))))
+    f_top = 20 * 4000 / 60
+    assert np.max(np.abs(d)) < 1.2 * 2 * amp * np.sin(np.pi * f_top / 20000.0)
+    # the speed column follows the ramp (symmetric FIR of a linear ramp; the raw-history regrid at a
+    # decimation change perturbs it by a fraction of one sample's increment)
+    ramp = blk.speed_rpm[(blk.speed_rpm > 2100) & (blk.speed_rpm < 3900)]
+    assert np.max(np.abs(np.diff(ramp) - 1.0)) < 0.2
+
+
+def test_quasi_static_start_stays_at_static_solution() -> None:
+    sys_ = make_system(stiffness_amp=0.0, te_amplitude=0.0, half_backlash=3e-6, load_torque=40.0)
+    sim = Simulator(
+        None,
+        0.0,
+        25.0,
+        2000.0,
+        channels=["dte", "bearing2_fy"],
+        system_builder=_builder(stiffness_amp=0.0, te_amplitude=0.0, half_backlash=3e-6, load_torque=40.0),
+    )
+    blk = sim.advance(0.05)
+    mc = sys_.meshes[0]
+    free = sys_.free_dofs
+    v = mc.line_of_action[free]
+    kk = sys_.K[np.ix_(free, free)] + mc.mean_stiffness * np.outer(v, v)
+    q = np.linalg.solve(kk, sys_.static_load[free] + mc.mean_stiffness * mc.half_backlash * v)
+    assert np.max(np.abs(blk.channel("dte") - v @ q)) < 1e-9 * abs(v @ q)
+
+
+def test_anti_aliasing_filter_meets_spec() -> None:
+    for k in (2, 5, 16):
+        h = design_taps(k)
+        w, r = freqz(h, worN=1 << 15, fs=float(k))  # frequency in units of the output rate
+        db = 20 * np.log10(np.abs(r) + 1e-300)
+        assert np.max(db[w >= 0.5]) < -80.0
+        assert np.max(np.abs(db[w <= 0.4])) < 0.01
+        assert (h.size - 1) % k == 0 and ((h.size - 1) // 2) % 1 == 0
+
+
+@dataclass
+class Unbalance:
+    """m e Omega^2 rotating force at one node (input shaft)."""
+
+    node0: int
+    me: float
+    name: str = "unbalance"
+
+    def external_forces(self, system: AssembledSystem) -> np.ndarray:
+        cols = np.zeros((system.ndof, 2))
+        cols[6 * self.node0, 0] = 1.0
+        cols[6 * self.node0 + 1, 1] = 1.0
+        return cols
+
+    def force_amplitudes(self, ctx) -> np.ndarray:
+        th = ctx.shaft_angle[:, 0]
+        w = ctx.shaft_speed[:, 0]
+        return self.me * w[:, None] ** 2 * np.column_stack([np.cos(th), np.sin(th)])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="open defect: the Simulator path lags by exactly one integration step "
+    "(phase error w*dt; amplitude exact to 1e-5; the solver path is exact)",
+)
+def test_unbalance_effect_matches_harmonic_response() -> None:
+    kw = {"with_mesh": False, "damping": 5.0}
+    eff = Unbalance(1, 1e-4)
+    fout = 5000.0
+    rpm = 3000.0
+    sim = Simulator(
+        None, rpm, 25.0, fout, channels=["node2_x", "node2_y"], effects=(eff,), system_builder=_builder(**kw)
+    )
+    sim.advance(3.0)
+    blk = sim.advance(0.2)
+    sys_ = make_system(**kw)
+    lin = LinearModel(sys_)
+    w = rpm * 2 * np.pi / 60
+    om_q = quantize_speed_rpm(rpm) * 2 * np.pi / 60
+    h = lin.K - w**2 * lin.M + 1j * w * (lin.C + om_q * lin.G)
+    f = eff.me * w**2 * (eff.external_forces(sys_)[sys_.free_dofs] @ np.array([1.0, -1j]))  # cos, sin
+    x = np.linalg.solve(h, f)
+    p = lin.pos[6 * 1]
+    exact = (x[p] * np.exp(1j * w * blk.time)).real
+    rel = np.sqrt(np.mean((blk.channel("node2_x") - exact) ** 2)) / np.sqrt(np.mean(exact**2))
+    assert rel < 5e-3
+
+
+def test_bad_input_is_refused_with_field_names() -> None:
+    b = _builder()
+    with pytest.raises(ValueError, match="speed_rpm"):
+        Simulator(None, float("nan"), system_builder=b)
+    with pytest.raises(ValueError, match="speed_rpm"):
+        Simulator(None, -1.0, system_builder=b)
+    with pytest.raises(ValueError, match="temperature_c"):
+        Simulator(None, 1000.0, 400.0, system_builder=b)
+    with pytest.raises(ValueError, match="output_rate_hz"):
+        Simulator(None, 1000.0, 25.0, 1e9, system_builder=b)
+    with pytest.raises(ValueError, match="steps_per_mesh"):
+        Simulator(None, 1000.0, 25.0, steps_per_mesh=4, system_builder=b)
+    with pytest.raises(ValueError, match="channels"):
+        Simulator(None, 1000.0, 25.0, channels=["node99_x"], system_builder=b)
+    sim = Simulator(None, 1000.0, 25.0, system_builder=b)
+    with pytest.raises(ValueError, match="temperature_c"):
+        sim.set_targets(temperature_c=-50.0)
+    with pytest.raises(ValueError, match="speed_rpm"):
+        sim.set_targets(speed_rpm=float("inf"))
+    with pytest.raises(ValueError, match="duration"):
+        sim.advance(-1.0)
