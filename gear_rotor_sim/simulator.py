@@ -413,7 +413,8 @@ class Simulator:
             if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:
                 self._activate(self._stepper, self._state, s_now)
         dt = self.dt
-        j = np.arange(self._raw - 1, self._raw + n + 1, dtype=float)
+        # new steps are raw+1 .. raw+n (raw is the carried state), plus one neighbour on each side
+        j = np.arange(self._raw, self._raw + n + 2, dtype=float)
         t = self._seg_t0 + j * dt
         speed = self._speed.value(t) * (2.0 * np.pi / 60.0)
         # angle anchored at the ramp start: the same values whatever the chunking

@@ -41,6 +41,10 @@ class MeshCoupling:
     base_radius_pinion: float  # m
     base_radius_gear: float  # m
     contact_ratio: float
+    # The same tables on the uniform phase grid ``arange(n) / n`` (periodic linear interpolation), for
+    # compiled kernels that look them up per step; None when only the callables are given.
+    table_stiffness: np.ndarray | None = None  # (n,) N/m
+    table_coefficients: np.ndarray | None = None  # (n, nb)
 
 
 @dataclass(frozen=True)

@@ -110,11 +110,6 @@ class Unbalance:
         return self.me * w[:, None] ** 2 * np.column_stack([np.cos(th), np.sin(th)])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="open defect: the Simulator path lags by exactly one integration step "
-    "(phase error w*dt; amplitude exact to 1e-5; the solver path is exact)",
-)
 def test_unbalance_effect_matches_harmonic_response() -> None:
     kw = {"with_mesh": False, "damping": 5.0}
     eff = Unbalance(1, 1e-4)

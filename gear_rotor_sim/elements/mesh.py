@@ -226,6 +226,14 @@ def _annulus_polar_inertia(pair: SpurGearPair, pinion: bool, density: float) -> 
     return density * math.pi * pair.face_width * (d_out**4 - float(d_in) ** 4) / 32.0
 
 
+def uniform_table(grid: np.ndarray, values: np.ndarray) -> np.ndarray | None:
+    """``values`` if ``grid`` is the uniform periodic grid ``arange(n) / n``, else None."""
+    g = np.asarray(grid, dtype=float)
+    if np.allclose(g, np.arange(g.size) / g.size, rtol=0.0, atol=1e-12):
+        return np.ascontiguousarray(values, dtype=float)
+    return None
+
+
 def _periodic_interpolator(grid: np.ndarray, values: np.ndarray):
     g = np.asarray(grid, dtype=float).copy()
     v = np.asarray(values, dtype=float).copy()
@@ -389,4 +397,6 @@ def build_mesh_coupling(
         base_radius_pinion=rbp,
         base_radius_gear=rbg,
         contact_ratio=pair.contact_ratio,
+        table_stiffness=uniform_table(table.phase, table.stiffness),
+        table_coefficients=uniform_table(table.phase, coef),
     )

@@ -519,3 +519,229 @@ def run_chunk(
     for l in range(nm):
         state[l] = prev_state[l]
     return STATUS_OK, nsteps, n_fail
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _table(tab: np.ndarray, phase: float) -> tuple[int, int, float]:
+    """Periodic linear interpolation indices on the uniform grid ``arange(n) / n``."""
+    nt = tab.shape[0]
+    x = phase * nt
+    i0 = int(np.floor(x))
+    f = x - i0
+    i0 = i0 % nt
+    i1 = i0 + 1
+    if i1 == nt:
+        i1 = 0
+    return i0, i1, f
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
+def _range_dot(cr: np.ndarray, ci: np.ndarray, zr: np.ndarray, zi: np.ndarray, lo: int, hi: int) -> float:
+    s = 0.0
+    for j in range(lo, hi):
+        s += cr[j] * zr[j] - ci[j] * zi[j]
+    return s
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def run_chunk_one_mesh(
+    zr: np.ndarray,
+    zi: np.ndarray,
+    rr: np.ndarray,
+    ri: np.ndarray,
+    c0r: np.ndarray,
+    c0i: np.ndarray,
+    swr: np.ndarray,
+    swi: np.ndarray,
+    n_forced: int,
+    crd_r: np.ndarray,
+    crd_i: np.ndarray,
+    crv_r: np.ndarray,
+    crv_i: np.ndarray,
+    pq: np.ndarray,
+    pq_static: np.ndarray,
+    outr: np.ndarray,
+    outi: np.ndarray,
+    out_lo: np.ndarray,
+    out_hi: np.ndarray,
+    dfeed: np.ndarray,
+    dfeed_static: np.ndarray,
+    tab_k: np.ndarray,
+    tab_c: np.ndarray,
+    mesh_par: np.ndarray,
+    phase: np.ndarray,
+    phase_rate: np.ndarray,
+    kfac: np.ndarray,
+    te_add: np.ndarray,
+    ted_add: np.ndarray,
+    ampl: np.ndarray,
+    beta_prev: np.ndarray,
+    ypred: np.ndarray,
+    state: np.ndarray,
+    bound: float,
+    out: np.ndarray,
+    dte: np.ndarray,
+    dted: np.ndarray,
+    fmesh: np.ndarray,
+    states: np.ndarray,
+    kt_out: np.ndarray,
+    et_out: np.ndarray,
+    edt_out: np.ndarray,
+    coef_out: np.ndarray,
+) -> tuple[int, int, int]:
+    """Advance ``n = phase.shape[0]`` steps of a system with exactly one mesh (modal map).
+
+    The same exact Newmark map as :func:`run_chunk`, specialised: the mesh stiffness, force
+    coefficients and transmission error (Eq 24) are looked up from the tables inside the loop; the
+    static load (constant amplitude) is a fixed modal increment ``c0``; the line-of-action column
+    ``-V`` and the mean-mesh compensation ``+V`` are one column ``u`` with amplitude
+    ``comp - coef_0 F``; the mode loop is fused (update, mesh prediction) and runs the force
+    columns only over the first ``n_forced`` modes (the modes a mesh or effect force reaches; the
+    rest, e.g. the axial modes, only propagate).
+
+    Active columns (``swr`` rows, ``pq`` columns, ``beta_prev``): 0 = u, 1..nb-1 = friction basis,
+    nb.. = effects. ``mesh_par`` = (kbar, cbar, c_m, b*, e0, phi). Outputs as in :func:`run_chunk`, plus
+    the per-step stiffness, transmission error, its rate and force coefficients (``*_out``).
+    """
+    nsteps = phase.shape[0]
+    na = beta_prev.shape[0]
+    nb = tab_c.shape[1]
+    ne = ampl.shape[1]
+    no = outr.shape[0]
+    nmode = zr.shape[0]
+    kbar = mesh_par[0]
+    cbar = mesh_par[1]
+    cm = mesh_par[2]
+    bst = mesh_par[3]
+    e0 = mesh_par[4]
+    ephi = mesh_par[5]
+    has_kfac = kfac.shape[0] > 0
+    has_te = te_add.shape[0] > 0
+    beta_new = np.zeros(na)
+    alpha = np.zeros(na)
+    coef = np.zeros(nb)
+    # 1-mesh work arrays for the shared active-set solver
+    prev_state = np.zeros(1, dtype=np.int64)
+    new_state = np.zeros(1, dtype=np.int64)
+    trial = np.zeros(1, dtype=np.int64)
+    a1 = np.zeros(1)
+    b1 = np.zeros(1)
+    am = np.zeros((1, 1))
+    bm = np.zeros((1, 1))
+    kk = np.zeros(1)
+    cc = np.zeros(1)
+    cc[0] = cm
+    ee = np.zeros(1)
+    ed = np.zeros(1)
+    bb = np.zeros(1)
+    bb[0] = bst
+    force = np.zeros(1)
+    work = np.zeros((1, 1))
+    rhs = np.zeros(1)
+    prev_state[0] = state[0]
+    n_fail = 0
+    # comp = kbar delta + cbar delta' responds to its own column u: eliminate once
+    h_d = pq[0, 0]
+    h_v = pq[1, 0]
+    einv = 1.0 / (1.0 - kbar * h_d - cbar * h_v)
+    two_pi = 2.0 * np.pi
+    for n in range(nsteps):
+        ph = phase[n]
+        i0, i1, f = _table(tab_k, ph)
+        k = tab_k[i0] + f * (tab_k[i1] - tab_k[i0])
+        if has_kfac:
+            k *= kfac[n]
+        for j in range(nb):
+            coef[j] = tab_c[i0, j] + f * (tab_c[i1, j] - tab_c[i0, j])
+        arg = two_pi * ph + ephi
+        e = e0 * np.sin(arg)
+        ed_ = e0 * np.cos(arg) * two_pi * phase_rate[n]
+        if has_te:
+            e += te_add[n]
+            ed_ += ted_add[n]
+        for q in range(ne):
+            beta_new[nb + q] = ampl[n, q]
+        if not (np.isfinite(k) and np.isfinite(e) and np.isfinite(ed_)):
+            state[0] = prev_state[0]
+            return STATUS_NONFINITE, n, n_fail
+        # delta, delta' at n+1 = prediction + known columns + response to the unknowns
+        ad = ypred[0] + pq_static[0]
+        av = ypred[1] + pq_static[1]
+        for q in range(na):
+            bq = beta_prev[q]
+            ad += pq[0, q] * bq
+            av += pq[1, q] * bq
+        for q in range(ne):
+            ad += pq[0, nb + q] * beta_new[nb + q]
+            av += pq[1, nb + q] * beta_new[nb + q]
+        gd = -coef[0] * pq[0, 0]
+        gv = -coef[0] * pq[1, 0]
+        for j in range(1, nb):
+            gd += pq[0, j] * coef[j]
+            gv += pq[1, j] * coef[j]
+        pcomp = (kbar * ad + cbar * av) * einv
+        qcomp = (kbar * gd + cbar * gv) * einv
+        a1[0] = ad + h_d * pcomp
+        b1[0] = av + h_v * pcomp
+        am[0, 0] = gd + h_d * qcomp
+        bm[0, 0] = gv + h_v * qcomp
+        kk[0] = k
+        ee[0] = e
+        ed[0] = ed_
+        its = mesh_solve(prev_state, a1, b1, am, bm, kk, cc, ee, ed, bb, new_state, force, work, rhs, trial)
+        if its < 0:
+            n_fail += 1
+        fm = force[0]
+        d = a1[0] + am[0, 0] * fm
+        dd = b1[0] + bm[0, 0] * fm
+        if not (np.isfinite(d) and np.isfinite(fm)):
+            state[0] = prev_state[0]
+            return STATUS_NONFINITE, n, n_fail
+        if abs(d) >= bound:
+            state[0] = prev_state[0]
+            return STATUS_BOUND, n, n_fail
+        dte[n, 0] = d
+        dted[n, 0] = dd
+        fmesh[n, 0] = fm
+        states[n, 0] = new_state[0]
+        kt_out[n] = k
+        et_out[n] = e
+        edt_out[n] = ed_
+        for j in range(nb):
+            coef_out[n, j] = coef[j]
+        prev_state[0] = new_state[0]
+        beta_new[0] = kbar * d + cbar * dd - coef[0] * fm
+        for j in range(1, nb):
+            beta_new[j] = coef[j] * fm
+        for q in range(na):
+            alpha[q] = beta_prev[q] + beta_new[q]
+        # modal update z <- r z + c0 + sum_q sw_q alpha_q: stride-1 passes that vectorise
+        for j in range(nmode):
+            tr = rr[j] * zr[j] - ri[j] * zi[j] + c0r[j]
+            zi[j] = rr[j] * zi[j] + ri[j] * zr[j] + c0i[j]
+            zr[j] = tr
+        for q in range(na):
+            aq = alpha[q]
+            if aq != 0.0:
+                for j in range(n_forced):
+                    zr[j] += swr[q, j] * aq
+                    zi[j] += swi[q, j] * aq
+        yd = 0.0
+        yv = 0.0
+        for j in range(n_forced):
+            yd += crd_r[j] * zr[j] - crd_i[j] * zi[j]
+            yv += crv_r[j] * zr[j] - crv_i[j] * zi[j]
+        ypred[0] = yd
+        ypred[1] = yv
+        for o in range(no):
+            s0 = _range_dot(outr[o], outi[o], zr, zi, out_lo[o], out_hi[o]) + dfeed_static[o]
+            for q in range(na):
+                s0 += dfeed[o, q] * beta_new[q]
+            out[n, o] = s0
+        for q in range(na):
+            beta_prev[q] = beta_new[q]
+        if not np.isfinite(yd):
+            state[0] = prev_state[0]
+            return STATUS_NONFINITE, n, n_fail
+    state[0] = prev_state[0]
+    return STATUS_OK, nsteps, n_fail

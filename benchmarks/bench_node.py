@@ -1,0 +1,175 @@
+"""End-to-end benchmark of the simulator node: simulate, publish the default streams, record MCAP.
+
+Starts the installed ``simulator`` executable (as ``ros2 run`` resolves it) with
+``config/simulator_node.yaml``, recording on, a requested real-time factor far above what the model
+can do (so it runs flat out), and measures the achieved real-time factor from ``/diagnostics``
+(simulated time advanced / wall time between two reports, after a warm-up). Prints the median of
+``--runs`` runs per speed. Goals (issue 4): >= 10 at 3000 rpm, >= 2 at 20000 rpm.
+
+``--burst`` instead runs the setpoint-flood check of issue 4: 1000 setpoints/s for 10 s (valid and
+invalid mixed) at real time factor 1, and prints the largest gap between stream messages and the
+node's memory before and after.
+
+    . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--burst]
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import os
+import signal
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from gear_rotor_sim.ros.demo import (
+    Probe,
+    ros_environment,
+    rss_bytes,
+    share_file,
+    start_process,
+    stop_process,
+    wait_for,
+)
+
+GOALS = {3000.0: 10.0, 20000.0: 2.0}
+
+
+def _sim_args(env: dict[str, str], speed: float, rtf: float, mcap: Path) -> list[str]:
+    return [
+        "--ros-args",
+        "--params-file",
+        str(share_file("config/simulator_node.yaml", env)),
+        "-p",
+        f"speed_rpm:={speed}",
+        "-p",
+        f"real_time_factor:={rtf}",
+        "-p",
+        "recording.enabled:=true",
+        "-p",
+        f"recording.path:={mcap}",
+        "-p",
+        "diagnostics_period_s:=0.5",
+    ]
+
+
+def _diag_points(probe: Probe) -> list[tuple[float, float]]:
+    """(wall, sim_time_s) of every received simulation status."""
+    out = []
+    with probe.lock:
+        diags = list(probe.diagnostics)
+    for wall, arr in diags:
+        for st in arr.status:
+            if st.name.endswith(": simulation"):
+                kv = {k.key: k.value for k in st.values}
+                out.append((wall, float(kv["sim_time_s"])))
+    return out
+
+
+def run_once(speed: float, warmup_s: float, measure_s: float, workdir: Path) -> float:
+    """Achieved real-time factor of one node run at ``speed`` rpm."""
+    env = ros_environment()
+    os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
+    mcap = workdir / f"bench_{int(speed)}.mcap"
+    sim = start_process("simulator", _sim_args(env, speed, 1.0e4, mcap), env, workdir / "simulator.log")
+    probe = Probe(topics=("/gear_rotor/dte",), reliable=False, keep_data=False)
+    try:
+        wait_for(
+            lambda: len(_diag_points(probe)) > 0 and _diag_points(probe)[-1][1] > 0, 300.0, "first chunks"
+        )
+        time.sleep(warmup_s)
+        p0 = _diag_points(probe)[-1]
+        time.sleep(measure_s)
+        p1 = _diag_points(probe)[-1]
+    finally:
+        rc = stop_process(sim, signal.SIGINT)
+        probe.close()
+    if rc != 0:
+        raise RuntimeError(f"simulator exited with {rc}; see {workdir / 'simulator.log'}")
+    size = mcap.stat().st_size / 1e6
+    rtf = (p1[1] - p0[1]) / (p1[0] - p0[0])
+    print(
+        f"  {speed:7.0f} rpm: achieved RTF {rtf:6.2f} ({p1[1] - p0[1]:.2f} s simulated in "
+        f"{p1[0] - p0[0]:.2f} s wall; MCAP {size:.1f} MB)",
+        flush=True,
+    )
+    return rtf
+
+
+def run_burst(workdir: Path, duration_s: float = 10.0, rate_hz: float = 1000.0) -> int:
+    """Setpoint flood at real time: stream gaps and node memory."""
+    env = ros_environment()
+    os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
+    sim = start_process(
+        "simulator", _sim_args(env, 3000.0, 1.0, workdir / "burst.mcap"), env, workdir / "simulator.log"
+    )
+    probe = Probe(topics=("/gear_rotor/dte",), reliable=False, keep_data=False)
+    try:
+        probe.wait_subscribers(300.0)
+        probe.wait_sim_time(2.0, 300.0)
+        rss0 = rss_bytes(sim.pid)
+        bad = [math.nan, math.inf, -1.0, 1.0e9]
+        t0 = time.monotonic()
+        sent = 0
+        while time.monotonic() - t0 < duration_s:
+            if sent % 2:
+                probe.set_speed(bad[sent % len(bad)])
+            else:
+                probe.set_speed(3000.0)
+            sent += 1
+            delay = t0 + sent / rate_hz - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        t1 = time.monotonic()
+        time.sleep(1.5)
+        rss1 = rss_bytes(sim.pid)
+        recs = [r for r in probe.records("/gear_rotor/dte") if t0 <= r.wall <= t1]
+        status = probe.latest_status(": setpoints") or {}
+    finally:
+        stop_process(sim, signal.SIGINT)
+        probe.close()
+    gaps = [b.wall - a.wall for a, b in itertools.pairwise(recs)]
+    seq_ok = all(b.sequence == a.sequence + 1 for a, b in itertools.pairwise(recs))
+    print(f"burst: {sent} setpoints in {t1 - t0:.1f} s ({sent / (t1 - t0):.0f}/s, half invalid)")
+    print(
+        f"  stream: {len(recs)} chunks during the burst, largest gap {max(gaps):.3f} s "
+        f"(nominal 0.100 s), sequence continuous: {seq_ok}"
+    )
+    print(
+        f"  node RSS {rss0 / 1e6:.1f} MB -> {rss1 / 1e6:.1f} MB; refused total {status.get('refused_total')}"
+    )
+    return 0 if seq_ok and max(gaps) < 1.0 and rss1 - rss0 < 20e6 else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--speeds", type=float, nargs="+", default=[3000.0, 20000.0])
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--warmup-s", type=float, default=3.0)
+    parser.add_argument("--measure-s", type=float, default=8.0)
+    parser.add_argument("--burst", action="store_true", help="run the setpoint-flood check instead")
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="bench_node_") as tmp:
+        workdir = Path(tmp)
+        if args.burst:
+            return run_burst(workdir)
+        print(f"node end to end (simulate, publish default streams, record MCAP); median of {args.runs} runs")
+        results = {}
+        for speed in args.speeds:
+            results[speed] = statistics.median(
+                run_once(speed, args.warmup_s, args.measure_s, workdir) for _ in range(args.runs)
+            )
+        print("\nspeed_rpm  achieved_RTF  goal")
+        for speed, rtf in results.items():
+            goal = GOALS.get(speed)
+            verdict = "" if goal is None else f">= {goal:g}  {'met' if rtf >= goal else 'NOT met'}"
+            print(f"{speed:9.0f}  {rtf:12.2f}  {verdict}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

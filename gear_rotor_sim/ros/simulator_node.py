@@ -1,0 +1,669 @@
+"""The simulator node: the digital twin's streams as ROS 2 topics (``ros2 run gear_rotor_sim simulator``).
+
+Threading (why setpoints are never starved): a dedicated *stepping thread* advances the simulator
+chunk by chunk, paces the chunks against the wall clock (``real_time_factor``), publishes them and
+feeds the recorder. The main thread spins a single-threaded executor that serves everything else:
+setpoint subscriptions, parameter services and the diagnostics timer. Setpoint callbacks only
+validate and store the latest target under a lock; the stepping thread hands it to the simulator
+between two chunks. A callback waits at most for the Python interpreter lock, i.e. the length of
+one compiled kernel call when the kernels hold it; with ``nogil`` kernels it runs concurrently.
+
+Pacing: chunk ``k`` covers simulated ``[t_k, t_k + chunk_period_s)`` and is published when the wall
+clock reaches ``anchor + (t_k + chunk_period_s - t_anchor) / real_time_factor``. When the model is
+late by more than one chunk (it cannot keep the requested factor), the anchor moves to "now": sim
+time slows down, no sample is dropped or repeated, and ``/diagnostics`` reports the achieved factor.
+
+The ROS layer adds no physics: the simulator computes every sample; this node selects channels,
+adds the configured sensor noise (a sensor model, off by default) and stamps messages with
+simulated time.
+"""
+
+from __future__ import annotations
+
+import array
+import collections
+import difflib
+import math
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from gear_rotor_msgs.msg import VibrationChunk
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import (
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_sensor_data,
+)
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64, MultiArrayDimension
+
+from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.ros.params import (
+    NOISE_FIELDS,
+    SIMULATOR_PARAMETERS,
+    STREAM_NAMES,
+    ParamError,
+    broadcast,
+    check_setpoint,
+    check_simulator_values,
+    declare,
+    spec_by_name,
+)
+from gear_rotor_sim.streams import StreamSpec, chunk_fields, default_streams, time_to_stamp
+
+NODE_NAME = "gear_rotor_simulator"
+SPEED_SETPOINT_TOPIC = "/gear_rotor/setpoint/speed_rpm"
+TEMPERATURE_SETPOINT_TOPIC = "/gear_rotor/setpoint/temperature_c"
+SETPOINT_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+DIAGNOSTICS_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE
+)
+#: Exit status for invalid parameters or an unusable model at start-up.
+EXIT_INVALID = 2
+
+
+def stream_qos(reliability: str, depth: int) -> QoSProfile:
+    """QoS of the sample streams: sensor data (best effort) by default, or reliable."""
+    if reliability == "reliable":
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=depth,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.VOLATILE,
+        )
+    qos = QoSProfile(
+        history=qos_profile_sensor_data.history,
+        depth=depth,
+        reliability=qos_profile_sensor_data.reliability,
+        durability=qos_profile_sensor_data.durability,
+    )
+    return qos
+
+
+class NoiseModel:
+    """Gazebo-style Gaussian sensor noise of one stream: ``x + bias + N(mean, stddev)``.
+
+    The bias of each channel is drawn once, from ``N(bias_mean, bias_stddev)``, when the model is
+    built; the white part is drawn per sample. The generator is seeded, so a run is reproducible.
+    """
+
+    def __init__(self, n_channels: int, params: dict[str, list[float]], seed: int, stream: str) -> None:
+        self.mean = np.asarray(broadcast(params["mean"], n_channels, f"noise.{stream}.mean"))
+        self.stddev = np.asarray(broadcast(params["stddev"], n_channels, f"noise.{stream}.stddev"))
+        bias_mean = np.asarray(broadcast(params["bias_mean"], n_channels, f"noise.{stream}.bias_mean"))
+        bias_std = np.asarray(broadcast(params["bias_stddev"], n_channels, f"noise.{stream}.bias_stddev"))
+        self._rng = np.random.default_rng(seed)
+        self.bias = bias_mean + bias_std * self._rng.standard_normal(n_channels)
+        self.active = bool(np.any(self.stddev) or np.any(self.mean) or np.any(self.bias))
+
+    def apply(self, data: np.ndarray) -> np.ndarray:
+        """Noisy copy of ``data`` (shape ``(n_samples, n_channels)``); ``data`` itself when inactive."""
+        if not self.active:
+            return data
+        noise = self._rng.standard_normal(data.shape) * self.stddev
+        return data + (self.mean + self.bias) + noise
+
+
+@dataclass
+class _SharedState:
+    """What the stepping thread and the executor callbacks share; guarded by ``lock``."""
+
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    pending_speed: float | None = None
+    pending_temperature: float | None = None
+    target_speed: float = 0.0
+    target_temperature: float = 0.0
+    accepted: int = 0
+    refused: int = 0
+    refused_since_diag: int = 0
+    last_refusal: str = ""
+    last_warn_wall: float = -math.inf
+    warn_suppressed: int = 0
+    sim_time: float = 0.0
+    speed: float = 0.0
+    temperature: float = 0.0
+    chunks: int = 0
+    samples: int = 0
+    late_chunks: int = 0
+    contact_loss: float = 0.0
+    back_side_contact: float = 0.0
+    solver_steps: int = 0
+    chunk_wall_s: float = 0.0
+    mesh_solve_failures: int = 0
+    health_level: bytes = DiagnosticStatus.OK
+    health_message: str = "ok"
+    achieved_rtf_window: collections.deque = field(default_factory=lambda: collections.deque(maxlen=512))
+    start_wall: float = 0.0
+
+
+def _stat(stats: Any, *names: str, default: float = 0.0) -> float:
+    """Field of the simulator's chunk statistics, which may be a dataclass or a mapping."""
+    if stats is None:
+        return default
+    for name in names:
+        if isinstance(stats, dict) and name in stats:
+            return float(stats[name])
+        if hasattr(stats, name):
+            return float(getattr(stats, name))
+    return default
+
+
+def fill_chunk(msg: VibrationChunk, fields: dict) -> VibrationChunk:
+    """Copy :func:`gear_rotor_sim.streams.chunk_fields` output into a ``VibrationChunk`` message."""
+    msg.header.stamp.sec = int(fields["stamp_sec"])
+    msg.header.stamp.nanosec = int(fields["stamp_nanosec"])
+    msg.header.frame_id = fields["frame_id"]
+    msg.sequence = fields["sequence"]
+    msg.first_sample_index = fields["first_sample_index"]
+    msg.sample_rate_hz = fields["sample_rate_hz"]
+    msg.speed_rpm = fields["speed_rpm"]
+    msg.temperature_c = fields["temperature_c"]
+    msg.channel_names = fields["channel_names"]
+    msg.units = fields["units"]
+    msg.layout.dim = [
+        MultiArrayDimension(label=lab, size=size, stride=stride) for lab, size, stride in fields["layout_dim"]
+    ]
+    msg.layout.data_offset = 0
+    data = array.array("d")
+    data.frombytes(fields["data"].tobytes())
+    msg.data = data
+    return msg
+
+
+class SimulatorNode(Node):
+    """Publishes the simulator's streams, takes setpoints, reports diagnostics, optionally records.
+
+    The constructor only declares parameters and wires publishers, subscriptions, the parameter
+    callback and the diagnostics timer; :meth:`start` builds the model and starts the stepping
+    thread, :meth:`stop` stops it and finalises the recording.
+    """
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        self._check_unknown_overrides()
+        self._specs = spec_by_name(SIMULATOR_PARAMETERS)
+        self._values: dict[str, Any] = declare(self, SIMULATOR_PARAMETERS)
+        check_simulator_values(self._values)
+        self._state = _SharedState()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._sim: Any = None
+        self._recorder: Any = None
+        self._recording_status = "off"
+        self._streams: list[StreamSpec] = self._select_streams()
+        self._noise: dict[str, NoiseModel] = {}
+        self._rebuild_noise = True
+        self._reanchor = True
+
+        qos = stream_qos(self._values["stream_qos.reliability"], int(self._values["stream_qos.depth"]))
+        self._stream_pubs = {
+            s.name: self.create_publisher(VibrationChunk, s.topic, qos) for s in self._streams
+        }
+        self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
+        self.create_subscription(Float64, SPEED_SETPOINT_TOPIC, self._on_speed, SETPOINT_QOS)
+        self.create_subscription(Float64, TEMPERATURE_SETPOINT_TOPIC, self._on_temperature, SETPOINT_QOS)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.create_timer(float(self._values["diagnostics_period_s"]), self._publish_diagnostics)
+
+    # ------------------------------------------------------------------------------------------
+    # set-up
+    # ------------------------------------------------------------------------------------------
+    def _check_unknown_overrides(self) -> None:
+        known = {s.name for s in SIMULATOR_PARAMETERS} | {"use_sim_time", "start_type_description_service"}
+        overrides = getattr(self, "_parameter_overrides", {}) or {}
+        unknown = sorted(set(overrides) - known)
+        if unknown:
+            hints = {u: difflib.get_close_matches(u, known, n=1) for u in unknown}
+            raise ParamError(
+                f"unknown parameter(s) for node {NODE_NAME}: "
+                + ", ".join(f"{u!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for u, h in hints.items())
+                + "; see docs/ros.md or config/simulator_node.yaml for the declared parameters"
+            )
+
+    def _select_streams(self) -> list[StreamSpec]:
+        v = self._values
+        bearings = [int(b) for b in v["publish.bearings"]]
+        specs = default_streams(
+            n_bearings=max(bearings) if bearings else 0,
+            displacement_nodes=tuple(int(n) for n in v["publish.displacement_nodes"]),
+            displacement_dofs=tuple(v["publish.displacement_dofs"]),
+            acceleration_nodes=tuple(int(n) for n in v["publish.acceleration_nodes"]),
+            has_mesh=bool(v["publish.dte"]),
+        )
+        out = []
+        for spec in specs:
+            channels = spec.channels
+            if spec.name == "bearing_forces":
+                channels = tuple(f"bearing{k}_f{d}" for k in bearings for d in "xyz")
+            out.append(StreamSpec(spec.name, channels, str(v[f"frame_ids.{spec.name}"])))
+        return out
+
+    def start(self) -> None:
+        """Load the model, build the simulator (and recorder), start the stepping thread.
+
+        Raises
+        ------
+        ParamError
+            When the model, a bearing type, or a requested channel does not exist, or the simulator
+            refuses the initial operating point; the message names the parameter.
+        """
+        from gear_rotor_sim.config import load_config
+        from gear_rotor_sim.simulator import Simulator
+
+        v = self._values
+        try:
+            cfg = load_config(str(v["model"]))
+            if v["bearing_type"]:
+                cfg = cfg.with_bearing_type(str(v["bearing_type"]))
+        except ValueError as exc:
+            raise ParamError(f"model/bearing_type: {exc}") from exc
+        available = {name for name, _unit in Simulator.available_channels(cfg)}
+        channels = [c for s in self._streams for c in s.channels]
+        missing = [c for c in channels if c not in available]
+        if missing:
+            raise ParamError(
+                f"publish.*: channels {missing} do not exist in model {v['model']!r} "
+                f"({len(cfg.bearings)} bearings, {cfg.n_nodes} nodes)"
+            )
+        try:
+            self._sim = Simulator(
+                cfg,
+                speed_rpm=float(v["speed_rpm"]),
+                temperature_c=float(v["temperature_c"]),
+                output_rate_hz=float(v["output_sample_rate_hz"]),
+                channels=list(dict.fromkeys(channels)),
+                steps_per_mesh=int(v["steps_per_mesh"]),
+                speed_ramp_rpm_per_s=float(v["speed_ramp_rpm_per_s"]),
+                temperature_ramp_c_per_s=float(v["temperature_ramp_c_per_s"]),
+            )
+        except ValueError as exc:
+            raise ParamError(f"simulator refused the parameters: {exc}") from exc
+        self._check_noise_lengths(v)
+        with self._state.lock:
+            self._state.target_speed = float(v["speed_rpm"])
+            self._state.target_temperature = float(v["temperature_c"])
+            self._state.speed = float(v["speed_rpm"])
+            self._state.temperature = float(v["temperature_c"])
+            self._state.start_wall = time.monotonic()
+        if v["recording.enabled"]:
+            self._recorder = self._open_recorder(
+                str(v["recording.path"]), float(v["recording.flush_period_s"])
+            )
+            self._recording_status = f"recording to {v['recording.path']}"
+        self._thread = threading.Thread(target=self._run, name="gear_rotor_stepping", daemon=True)
+        self._thread.start()
+        self.get_logger().info(
+            f"simulating {v['model']} at {v['speed_rpm']} rpm, {v['temperature_c']} C, "
+            f"{v['output_sample_rate_hz']} Hz, chunks of {v['chunk_period_s']} s, requested RTF "
+            f"{v['real_time_factor']}; streams {[s.topic for s in self._streams]}"
+            + (f"; recording to {v['recording.path']}" if self._recorder is not None else "")
+        )
+
+    def _open_recorder(self, path: str, flush_period_s: float) -> Any:
+        from gear_rotor_sim.recording.writer import McapRecorder, RecordingError, qos_profile
+
+        reliable = self._values["stream_qos.reliability"] == "reliable"
+        offered = dict(qos_profile("reliable" if reliable else "sensor_data"))
+        offered["depth"] = int(self._values["stream_qos.depth"])
+        try:
+            return McapRecorder(path, self._streams, qos=offered, flush_period_s=flush_period_s)
+        except (OSError, ValueError, RecordingError) as exc:
+            raise ParamError(f"recording.path: cannot record to {path!r}: {exc}") from exc
+
+    def _write_recording(self, sub: SampleBlock, spec: StreamSpec, seq: int) -> None:
+        """Record one chunk; a failing recording (disk full, ...) is stopped, streaming goes on."""
+        try:
+            self._recorder.write_block(sub, spec, seq)
+        except Exception as exc:  # RecordingError, OSError: reported, streaming continues
+            recorder, self._recorder = self._recorder, None
+            self._recording_status = f"failed: {exc}"
+            self.get_logger().error(f"recording stopped, streaming continues: {exc}")
+            try:
+                recorder.close()
+            except Exception as close_exc:  # the original error was already reported
+                self.get_logger().error(f"recording not finalised: {close_exc}")
+
+    def stop(self) -> None:
+        """Stop the stepping thread and finalise the recording (idempotent)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if self._recorder is not None:
+            recorder, self._recorder = self._recorder, None
+            try:
+                recorder.close()
+            except Exception as exc:  # RecordingError / OSError: nothing more to do than report it
+                self.get_logger().error(f"recording not finalised: {exc}")
+                return
+            self._recording_status = "finalised"
+            self.get_logger().info(
+                f"recording finalised: {self._values['recording.path']} "
+                f"({recorder.message_count} messages, {recorder.bytes_written / 1e6:.1f} MB)"
+            )
+
+    @property
+    def failed(self) -> bool:
+        """True once the stepping thread has stopped on an error."""
+        return self._state.health_level == DiagnosticStatus.ERROR
+
+    # ------------------------------------------------------------------------------------------
+    # setpoints and parameters (executor thread)
+    # ------------------------------------------------------------------------------------------
+    def _on_speed(self, msg: Float64) -> None:
+        self._setpoint("speed_rpm", msg.data)
+
+    def _on_temperature(self, msg: Float64) -> None:
+        self._setpoint("temperature_c", msg.data)
+
+    def _setpoint(self, kind: str, value: float) -> None:
+        reason = check_setpoint(kind, float(value), self._values)
+        if reason is not None:
+            self._refuse(reason)
+            return
+        with self._state.lock:
+            if kind == "speed_rpm":
+                self._state.pending_speed = float(value)
+            else:
+                self._state.pending_temperature = float(value)
+            self._state.accepted += 1
+
+    def _refuse(self, reason: str) -> None:
+        """Count a refused setpoint and log it at WARN (at most once per second, with a count)."""
+        now = time.monotonic()
+        st = self._state
+        with st.lock:
+            st.refused += 1
+            st.refused_since_diag += 1
+            st.last_refusal = reason
+            if now - st.last_warn_wall < 1.0:
+                st.warn_suppressed += 1
+                return
+            suppressed, st.warn_suppressed, st.last_warn_wall = st.warn_suppressed, 0, now
+        more = f" ({suppressed} more refused in the last second)" if suppressed else ""
+        self.get_logger().warning(f"setpoint refused, running state unchanged: {reason}{more}")
+
+    def _check_noise_lengths(self, values: dict[str, Any]) -> None:
+        for spec in self._streams:
+            for f in NOISE_FIELDS:
+                broadcast(values[f"noise.{spec.name}.{f}"], len(spec.channels), f"noise.{spec.name}.{f}")
+
+    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        new = dict(self._values)
+        try:
+            for p in params:
+                spec = self._specs.get(p.name)
+                if spec is None:
+                    continue  # e.g. use_sim_time: rclpy's own
+                value = p.value
+                if value is None:
+                    value = []
+                elif not isinstance(value, str | bool | int | float):
+                    value = list(value)
+                spec.check(value)
+                new[p.name] = value
+            check_simulator_values(new)
+            self._check_noise_lengths(new)
+        except ParamError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        changed = {k for k in new if new[k] != self._values[k]}
+        self._values = new
+        if any(k.startswith("noise.") for k in changed):
+            self._rebuild_noise = True
+        if changed & {"real_time_factor", "chunk_period_s"}:
+            self._reanchor = True
+        if changed:
+            self.get_logger().info(f"parameters changed: {sorted(changed)}")
+        return SetParametersResult(successful=True, reason="")
+
+    # ------------------------------------------------------------------------------------------
+    # stepping thread
+    # ------------------------------------------------------------------------------------------
+    def _apply_pending(self) -> None:
+        st = self._state
+        with st.lock:
+            speed, st.pending_speed = st.pending_speed, None
+            temp, st.pending_temperature = st.pending_temperature, None
+        for kind, value in (("speed_rpm", speed), ("temperature_c", temp)):
+            if value is None:
+                continue
+            try:
+                self._sim.set_targets(**{kind: value})
+            except ValueError as exc:  # the simulator's own range checks (e.g. material table)
+                self._refuse(f"{kind} setpoint {value} refused by the simulator: {exc}")
+                continue
+            with st.lock:
+                if kind == "speed_rpm":
+                    st.target_speed = value
+                else:
+                    st.target_temperature = value
+
+    def _build_noise(self) -> None:
+        v = self._values
+        self._noise = {
+            spec.name: NoiseModel(
+                len(spec.channels),
+                {f: v[f"noise.{spec.name}.{f}"] for f in NOISE_FIELDS},
+                int(v["noise.seed"]) + STREAM_NAMES.index(spec.name),
+                spec.name,
+            )
+            for spec in self._streams
+        }
+
+    def _run(self) -> None:
+        try:
+            self._loop()
+        except Exception as exc:  # reported on /diagnostics and in the log; the node stays up
+            with self._state.lock:
+                self._state.health_level = DiagnosticStatus.ERROR
+                self._state.health_message = f"{type(exc).__name__}: {exc}"
+            self.get_logger().error(f"simulation stopped: {type(exc).__name__}: {exc}")
+
+    def _loop(self) -> None:
+        sequence = {s.name: 0 for s in self._streams}
+        expected_index: int | None = None
+        anchor_wall = anchor_sim = 0.0
+        clock = Clock()
+        while not self._stop.is_set():
+            if self._rebuild_noise:
+                self._rebuild_noise = False
+                self._build_noise()
+            self._apply_pending()
+            rtf = float(self._values["real_time_factor"])
+            chunk = float(self._values["chunk_period_s"])
+            t_start = float(self._sim.time_s)
+            if self._reanchor:
+                self._reanchor = False
+                anchor_wall, anchor_sim = time.monotonic(), t_start
+            block: SampleBlock = self._sim.advance(chunk)
+            if expected_index is not None and block.first_index != expected_index:
+                raise RuntimeError(
+                    f"simulator continuity broken: block starts at sample {block.first_index}, "
+                    f"expected {expected_index}"
+                )
+            expected_index = block.first_index + block.n_samples
+            t_end = float(self._sim.time_s)
+            due = anchor_wall + (t_end - anchor_sim) / rtf
+            now = time.monotonic()
+            late = now - due > chunk / rtf
+            if due > now:
+                self._stop.wait(due - now)
+            elif late:
+                anchor_wall, anchor_sim = now, t_end  # cannot keep up: sim time slows down
+            for spec in self._streams:
+                sub = block.select(spec.channels)
+                noisy = self._noise[spec.name].apply(sub.data)
+                if noisy is not sub.data:
+                    sub = SampleBlock(
+                        sub.t0,
+                        sub.sample_rate_hz,
+                        sub.channels,
+                        sub.units,
+                        noisy,
+                        sub.first_index,
+                        sub.speed_rpm,
+                        sub.temperature_c,
+                    )
+                seq = sequence[spec.name]
+                msg = fill_chunk(VibrationChunk(), chunk_fields(sub, spec, seq))
+                self._stream_pubs[spec.name].publish(msg)
+                if self._recorder is not None:
+                    self._write_recording(sub, spec, seq)
+                sequence[spec.name] = seq + 1
+            if self._values["publish_clock"]:
+                clock.clock.sec, clock.clock.nanosec = time_to_stamp(t_end)
+                self._clock_pub.publish(clock)
+            self._record_progress(block, t_end, late)
+
+    def _record_progress(self, block: SampleBlock, t_end: float, late: bool) -> None:
+        stats = getattr(self._sim, "last_chunk_stats", None)
+        st = self._state
+        with st.lock:
+            st.sim_time = t_end
+            st.speed = float(self._sim.speed_rpm)
+            st.temperature = float(self._sim.temperature_c)
+            st.chunks += 1
+            st.samples += block.n_samples
+            st.late_chunks += int(late)
+            st.contact_loss = _stat(stats, "contact_loss_fraction")
+            st.back_side_contact = _stat(stats, "back_contact_fraction", "back_side_contact_fraction")
+            st.solver_steps = int(_stat(stats, "steps"))
+            st.chunk_wall_s = _stat(stats, "wall_s", "wall_time_s")
+            st.mesh_solve_failures = int(_stat(stats, "mesh_solve_failures"))
+            st.achieved_rtf_window.append((time.monotonic(), t_end))
+
+    # ------------------------------------------------------------------------------------------
+    # diagnostics (executor thread)
+    # ------------------------------------------------------------------------------------------
+    def achieved_rtf(self) -> float:
+        """Simulated seconds per wall second over the last few seconds (0 before two chunks)."""
+        with self._state.lock:
+            window = list(self._state.achieved_rtf_window)
+        if len(window) < 2:
+            return 0.0
+        now = window[-1][0]
+        recent = [w for w in window if now - w[0] <= 3.0]
+        if len(recent) < 2:
+            recent = window[-2:]
+        (w0, s0), (w1, s1) = recent[0], recent[-1]
+        return (s1 - s0) / (w1 - w0) if w1 > w0 else 0.0
+
+    def _publish_diagnostics(self) -> None:
+        rtf = self.achieved_rtf()
+        st = self._state
+        with st.lock:
+            sim_kv = {
+                "achieved_real_time_factor": f"{rtf:.4g}",
+                "requested_real_time_factor": f"{self._values['real_time_factor']:.4g}",
+                "sim_time_s": f"{st.sim_time:.6f}",
+                "speed_rpm": f"{st.speed:.3f}",
+                "target_speed_rpm": f"{st.target_speed:.3f}",
+                "temperature_c": f"{st.temperature:.3f}",
+                "target_temperature_c": f"{st.target_temperature:.3f}",
+                "contact_loss_fraction": f"{st.contact_loss:.6f}",
+                "back_side_contact_fraction": f"{st.back_side_contact:.6f}",
+                "solver_steps_last_chunk": str(st.solver_steps),
+                "chunk_wall_time_s": f"{st.chunk_wall_s:.6f}",
+                "mesh_solve_failures": str(st.mesh_solve_failures),
+                "chunks_published": str(st.chunks),
+                "samples_published": str(st.samples),
+                "late_chunks": str(st.late_chunks),
+                "solver_health": st.health_message,
+                "recording": self._recording_status,
+            }
+            level, message = st.health_level, st.health_message
+            sp_level = DiagnosticStatus.WARN if st.refused_since_diag else DiagnosticStatus.OK
+            sp_message = (
+                f"{st.refused_since_diag} setpoint(s) refused since last report; last: {st.last_refusal}"
+                if st.refused_since_diag
+                else "ok"
+            )
+            sp_kv = {
+                "accepted_total": str(st.accepted),
+                "refused_total": str(st.refused),
+                "refused_since_last_report": str(st.refused_since_diag),
+                "last_refusal": st.last_refusal,
+            }
+            st.refused_since_diag = 0
+        requested = float(self._values["real_time_factor"])
+        if level == DiagnosticStatus.OK and st.chunks > 1 and rtf < 0.9 * requested:
+            level = DiagnosticStatus.WARN
+            message = f"cannot keep real_time_factor {requested:g}: achieved {rtf:.3g}"
+        elif level == DiagnosticStatus.OK:
+            message = f"running, achieved real-time factor {rtf:.3g}"
+        arr = DiagnosticArray()
+        arr.header.stamp = self.get_clock().now().to_msg()
+        arr.status = [
+            DiagnosticStatus(
+                level=level,
+                name=f"{NODE_NAME}: simulation",
+                message=message,
+                hardware_id="gear_rotor_sim",
+                values=[KeyValue(key=k, value=val) for k, val in sim_kv.items()],
+            ),
+            DiagnosticStatus(
+                level=sp_level,
+                name=f"{NODE_NAME}: setpoints",
+                message=sp_message,
+                hardware_id="gear_rotor_sim",
+                values=[KeyValue(key=k, value=val) for k, val in sp_kv.items()],
+            ),
+        ]
+        self._diag_pub.publish(arr)
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``simulator``: run the node until SIGINT/SIGTERM; 2 on invalid parameters."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+
+    def _on_signal(signum: int, _frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, _on_signal)
+    signal.signal(signal.SIGTERM, _on_signal)
+    node: SimulatorNode | None = None
+    try:
+        try:
+            node = SimulatorNode()
+            node.start()
+        except (ParamError, InvalidParameterValueException, InvalidParameterTypeException) as exc:
+            print(f"[{NODE_NAME}] invalid parameters: {exc}", file=sys.stderr)
+            return EXIT_INVALID
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.1)
+        node.get_logger().info("shutting down")
+    finally:
+        if node is not None:
+            node.stop()
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
