@@ -57,6 +57,7 @@ class Material:
     out_of_range: str = "error"
     reference_temperature_c: float = 25.0
     _warned: list[bool] = field(default_factory=lambda: [False], init=False, repr=False, compare=False)
+    _fits: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.temperatures_c, dtype=float)
@@ -79,14 +80,20 @@ class Material:
         return float(self.temperatures_c[0]), float(self.temperatures_c[-1])
 
     def _fit(self, values: tuple[float, ...], degree: int) -> np.ndarray:
-        t = np.asarray(self.temperatures_c, dtype=float)
-        deg = min(degree, len(t) - 1)
-        # Fit in a centred, scaled variable for conditioning; coefficients refer to that variable.
-        return np.polyfit((t - t.mean()) / 100.0, np.asarray(values, dtype=float), deg)
+        # The fits are computed once per material (the dataclass is frozen, its tables immutable).
+        key = (id(values), degree)
+        hit = self._fits.get(key)
+        if hit is None:
+            t = np.asarray(self.temperatures_c, dtype=float)
+            deg = min(degree, len(t) - 1)
+            # Fit in a centred, scaled variable for conditioning; coefficients refer to that variable.
+            hit = np.polyfit((t - t.mean()) / 100.0, np.asarray(values, dtype=float), deg)
+            self._fits[key] = hit
+        return hit
 
     def _evaluate(self, coeffs: np.ndarray, temperature_c: float | np.ndarray) -> np.ndarray:
-        t = np.asarray(self.temperatures_c, dtype=float)
-        return np.polyval(coeffs, (np.asarray(temperature_c, dtype=float) - t.mean()) / 100.0)
+        t_mean = float(np.mean(self.temperatures_c))
+        return np.polyval(coeffs, (np.asarray(temperature_c, dtype=float) - t_mean) / 100.0)
 
     def check_temperature(self, temperature_c: float | np.ndarray) -> None:
         """Apply the out-of-range policy to ``temperature_c`` (deg C).
@@ -96,8 +103,10 @@ class Material:
         ValueError
             If a temperature is non-finite, or outside the table and the policy is ``"error"``.
         """
-        tc = np.asarray(temperature_c, dtype=float)
         lo, hi = self.temperature_range_c
+        if isinstance(temperature_c, float | int) and lo <= temperature_c <= hi:
+            return  # the common scalar case, without array overhead
+        tc = np.asarray(temperature_c, dtype=float)
         if not np.all(np.isfinite(tc)):
             raise ValueError(f"temperature_c: {temperature_c} is not finite (material {self.name!r})")
         if np.any(tc < lo) or np.any(tc > hi):

@@ -29,6 +29,7 @@ from gear_rotor_sim.solver.decimate import StreamDecimator
 from gear_rotor_sim.solver.newmark import (
     MAX_STEPS_PER_MESH,
     MIN_STEPS_PER_MESH,
+    SPEED_QUANTUM_REL,
     NewmarkStepper,
     SimulationDiverged,
     SolverState,
@@ -375,7 +376,7 @@ class Simulator:
         if s_now != self._speed.target:
             sq = quantize_speed_rpm(s_now)
             up = self._speed.target > s_now
-            step = 1 + 0.5 * 0.0025
+            step = np.sqrt(1.0 + SPEED_QUANTUM_REL)  # half a quantum on the log grid
             level = (sq * step if up else sq / step) if sq > 0 else (0.5 if up else -1.0)
             tt = self._speed.time_to_reach(level) + self._speed.t0 - t_raw
             if np.isfinite(tt):

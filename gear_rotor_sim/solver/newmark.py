@@ -35,8 +35,9 @@ from scipy.sparse.csgraph import connected_components
 from gear_rotor_sim.solver import kernels
 from gear_rotor_sim.system_data import DOF_NAMES, AssembledSystem
 
-#: Relative speed quantum of the eigenbasis cache (gyroscopic matrix at a quantised speed).
-SPEED_QUANTUM_REL = 0.0025
+#: Relative speed quantum of the eigenbasis cache: the gyroscopic matrix is taken at the speed rounded
+#: to a log grid of this ratio, so the gyroscopic moments are within half of it (0.5 %) of exact.
+SPEED_QUANTUM_REL = 0.01
 #: Below this input speed the gyroscopic term is taken at zero speed.
 SPEED_ZERO_RPM = 0.5
 #: Eigenvector matrices with a 1-norm condition estimate above this use the dense fallback.
