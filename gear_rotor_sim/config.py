@@ -707,7 +707,10 @@ def _read_source(source: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, A
         candidates = [d / stem for d in config_dirs()] if path.parent == Path(".") else []
         found = [c for c in candidates if c.is_file()]
         if not found:
-            names = sorted({p.stem for d in config_dirs() for p in d.glob("*.yaml")})
+            # node parameter files (*_node.yaml) and sweep files live in config/ too; list rigs only
+            names = sorted(
+                {p.stem for d in config_dirs() for p in d.glob("*.yaml") if not p.stem.endswith("_node")}
+            )
             raise ConfigError(
                 f"source: {str(source)!r} is neither a file nor a config name; available names {names}"
             )

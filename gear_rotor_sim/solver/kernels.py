@@ -537,9 +537,14 @@ def _table(tab: np.ndarray, phase: float) -> tuple[int, int, float]:
 
 @njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
 def _range_dot(cr: np.ndarray, ci: np.ndarray, zr: np.ndarray, zi: np.ndarray, lo: int, hi: int) -> float:
+    """``sum_{lo <= j < hi} cr_j zr_j - ci_j zi_j`` over slices (so that the loop vectorises)."""
+    a = cr[lo:hi]
+    b = ci[lo:hi]
+    x = zr[lo:hi]
+    y = zi[lo:hi]
     s = 0.0
-    for j in range(lo, hi):
-        s += cr[j] * zr[j] - ci[j] * zi[j]
+    for j in range(a.shape[0]):
+        s += a[j] * x[j] - b[j] * y[j]
     return s
 
 
@@ -645,6 +650,33 @@ def run_chunk_one_mesh(
     h_v = pq[1, 0]
     einv = 1.0 / (1.0 - kbar * h_d - cbar * h_v)
     two_pi = 2.0 * np.pi
+    zfr = zr[:n_forced]
+    zfi = zi[:n_forced]
+    zur = zr[n_forced:]
+    zui = zi[n_forced:]
+    n_unforced = nmode - n_forced
+    rfr = rr[:n_forced]
+    rfi = ri[:n_forced]
+    rur = rr[n_forced:]
+    rui = ri[n_forced:]
+    c0fr = c0r[:n_forced]
+    c0fi = c0i[:n_forced]
+    c0ur = c0r[n_forced:]
+    c0ui = c0i[n_forced:]
+    na_mesh = nb  # active mesh columns (u and the friction columns); at most 4 (Eq 29)
+    zero = np.zeros(n_forced)
+    s0r = swr[0, :n_forced]
+    s0i = swi[0, :n_forced]
+    s1r = swr[1, :n_forced] if nb > 1 else zero
+    s1i = swi[1, :n_forced] if nb > 1 else zero
+    s2r = swr[2, :n_forced] if nb > 2 else zero
+    s2i = swi[2, :n_forced] if nb > 2 else zero
+    s3r = swr[3, :n_forced] if nb > 3 else zero
+    s3i = swi[3, :n_forced] if nb > 3 else zero
+    cdr = crd_r[:n_forced]
+    cdi = crd_i[:n_forced]
+    cvr = crv_r[:n_forced]
+    cvi = crv_i[:n_forced]
     for n in range(nsteps):
         ph = phase[n]
         i0, i1, f = _table(tab_k, ph)
@@ -715,22 +747,43 @@ def run_chunk_one_mesh(
             beta_new[j] = coef[j] * fm
         for q in range(na):
             alpha[q] = beta_prev[q] + beta_new[q]
-        # modal update z <- r z + c0 + sum_q sw_q alpha_q: stride-1 passes that vectorise
-        for j in range(nmode):
-            tr = rr[j] * zr[j] - ri[j] * zi[j] + c0r[j]
-            zi[j] = rr[j] * zi[j] + ri[j] * zr[j] + c0i[j]
-            zr[j] = tr
-        for q in range(na):
-            aq = alpha[q]
-            if aq != 0.0:
-                for j in range(n_forced):
-                    zr[j] += swr[q, j] * aq
-                    zi[j] += swi[q, j] * aq
+        # modal update z <- r z + c0 + sum_q sw_q alpha_q and the mesh prediction, in one pass over
+        # the forced modes with the four mesh columns unrolled (loops run over slices from 0: LLVM
+        # does not vectorise loops with run-time start offsets), then the unforced modes
+        a0 = alpha[0]
+        a1_ = alpha[1] if na_mesh > 1 else 0.0
+        a2_ = alpha[2] if na_mesh > 2 else 0.0
+        a3_ = alpha[3] if na_mesh > 3 else 0.0
         yd = 0.0
         yv = 0.0
         for j in range(n_forced):
-            yd += crd_r[j] * zr[j] - crd_i[j] * zi[j]
-            yv += crv_r[j] * zr[j] - crv_i[j] * zi[j]
+            xr = zfr[j]
+            xi = zfi[j]
+            tr = (
+                rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * a0 + s1r[j] * a1_ + s2r[j] * a2_ + s3r[j] * a3_
+            )
+            ti = (
+                rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * a0 + s1i[j] * a1_ + s2i[j] * a2_ + s3i[j] * a3_
+            )
+            zfr[j] = tr
+            zfi[j] = ti
+            yd += cdr[j] * tr - cdi[j] * ti
+            yv += cvr[j] * tr - cvi[j] * ti
+        for q in range(na_mesh, na):  # effect columns
+            aq = alpha[q]
+            if aq != 0.0:
+                sr = swr[q, :n_forced]
+                si = swi[q, :n_forced]
+                for j in range(n_forced):
+                    zfr[j] += sr[j] * aq
+                    zfi[j] += si[j] * aq
+                    yd += (cdr[j] * sr[j] - cdi[j] * si[j]) * aq
+                    yv += (cvr[j] * sr[j] - cvi[j] * si[j]) * aq
+        for j in range(n_unforced):
+            xr = zur[j]
+            xi = zui[j]
+            zur[j] = rur[j] * xr - rui[j] * xi + c0ur[j]
+            zui[j] = rur[j] * xi + rui[j] * xr + c0ui[j]
         ypred[0] = yd
         ypred[1] = yv
         for o in range(no):

@@ -520,7 +520,7 @@ def fast_map(lin: LinearModel, mp: StepMap) -> FastMap | None:
     if np.any(cb[:nb] < 0) or not np.array_equal(lin.Fc[:, cb[0]], -lin.Fc[:, lin.col_comp[0]]):
         return None
     tab_c = np.ascontiguousarray(mc.table_coefficients, float).reshape(mc.table_stiffness.size, -1)
-    if tab_c.shape[1] != nb or not np.all(tab_c[:, 0] == 1.0):
+    if nb > 4 or tab_c.shape[1] != nb or not np.all(tab_c[:, 0] == 1.0):
         return None
     cols = np.array([lin.col_comp[0], *cb[1:nb], *range(lin.col_eff0, lin.m)], dtype=np.int64)
     nf = mp.basis.n_forced if mp.basis.n_forced >= 0 else mp.basis.lam.size
