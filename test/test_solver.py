@@ -42,11 +42,14 @@ def make_system(
     load_torque: float = 50.0,
     friction: float = 0.0,
     temperature_c: float = 25.0,
+    tables: bool = True,
 ) -> AssembledSystem:
     """Two 3-node shafts (pinion node 2, gear node 5; 1-based), bearings at both shaft ends.
 
     Node-lumped masses/inertias, springs between adjacent nodes, a spur mesh on Eq 22 geometry.
     ``damping`` scales a stiffness-proportional damping; ``gyro`` scales the polar inertias in G.
+    ``tables``: the mesh carries uniform tables (the compiled single-mesh fast path runs) and its
+    callables interpolate them; False: analytic callables only (the general kernel runs).
     """
     n_nodes, ndof = 6, 36
     m, jd, jp = 2.0, 4e-3, 8e-3
@@ -102,6 +105,19 @@ def make_system(
                 cols.append(friction * np.cos(2 * np.pi * ph))
             return np.stack(cols, axis=-1)
 
+        tab_k = tab_c = None
+        if tables:
+            grid = np.arange(512) / 512.0
+            tab_k, tab_c = stiff(grid), coefs(grid)
+            stiff_tab, coefs_tab = tab_k.copy(), tab_c.copy()
+
+            def stiff(phase: np.ndarray) -> np.ndarray:
+                return np.interp(np.asarray(phase, float), grid, stiff_tab, period=1.0)
+
+            def coefs(phase: np.ndarray) -> np.ndarray:
+                ph = np.atleast_1d(np.asarray(phase, float))
+                return np.column_stack([np.interp(ph, grid, c, period=1.0) for c in coefs_tab.T])
+
         meshes = (
             MeshCoupling(
                 1,
@@ -122,6 +138,8 @@ def make_system(
                 rbp,
                 rbg,
                 1.6,
+                tab_k,
+                tab_c,
             ),
         )
     return AssembledSystem(
@@ -153,8 +171,11 @@ def harmonic_dte(system: AssembledSystem, omega_in: float, w: float, e0: float, 
     return complex(lin.V[0] @ x)
 
 
-def test_linear_harmonic_response_matches_frequency_domain() -> None:
-    sys_ = make_system(stiffness_amp=0.0, half_backlash=0.0, te_amplitude=5e-6, load_torque=0.0, damping=5.0)
+@pytest.mark.parametrize("tables", [True, False], ids=["fast-kernel", "general-kernel"])
+def test_linear_harmonic_response_matches_frequency_domain(tables: bool) -> None:
+    sys_ = make_system(
+        stiffness_amp=0.0, half_backlash=0.0, te_amplitude=5e-6, load_torque=0.0, damping=5.0, tables=tables
+    )
     speed_rpm = 3000.0
     res, _ = simulate_steady(sys_, speed_rpm, 300, 40, steps_per_mesh=64, channels=("dte",), sample="step")
     omega_in = quantize_speed_rpm(speed_rpm) * 2 * np.pi / 60
@@ -241,9 +262,14 @@ def test_undamped_linear_run_conserves_energy() -> None:
     assert e_d[-1] < 0.99 * e_d[0]
 
 
-def _nonlinear_run(friction: float = 0.0) -> tuple:
+def _nonlinear_run(friction: float = 0.0, tables: bool = True) -> tuple:
     sys_ = make_system(
-        half_backlash=3e-6, te_amplitude=2.5e-5, load_torque=20.0, stiffness_amp=0.4, friction=friction
+        half_backlash=3e-6,
+        te_amplitude=2.5e-5,
+        load_torque=20.0,
+        stiffness_amp=0.4,
+        friction=friction,
+        tables=tables,
     )
     names = [
         "dte",
@@ -261,13 +287,15 @@ def _nonlinear_run(friction: float = 0.0) -> tuple:
     omega = 4000 * 2 * np.pi / 60
     dt = 2 * np.pi / (20 * omega) / 32
     stepper.set_operating_point(omega, dt, st)
+    assert (stepper.fast is not None) == tables  # the path under test is the one intended
     j = np.arange(-1, 32 * 300 + 1, dtype=float)
     return sys_, stepper.run(j * dt, omega * j * dt, np.full(j.size, omega), st)
 
 
+@pytest.mark.parametrize("tables", [True, False], ids=["fast-kernel", "general-kernel"])
 @pytest.mark.parametrize("friction", [0.0, 0.05])
-def test_mesh_law_holds_exactly_every_step(friction: float) -> None:
-    sys_, (ch, dte, dted, fm, states, exc) = _nonlinear_run(friction)
+def test_mesh_law_holds_exactly_every_step(friction: float, tables: bool) -> None:
+    sys_, (ch, dte, dted, fm, states, exc) = _nonlinear_run(friction, tables)
     kt, et, edt, _, _ = exc
     mc = sys_.meshes[0]
     b = mc.half_backlash
@@ -331,8 +359,13 @@ def test_divergence_raises_naming_time_speed_temperature() -> None:
         stepper.run(j * 1e-5, 300 * j * 1e-5, np.full(j.size, 300.0), st, bound=1e-9)
     bad = make_system()
     mc = bad.meshes[0]
+    poisoned = np.where(np.arange(512) / 512 > 0.5, np.nan, 2e8)  # for the table-driven fast kernel
     nan_mesh = MeshCoupling(
-        **{**mc.__dict__, "stiffness": lambda ph: np.where(np.asarray(ph) > 0.5, np.nan, 2e8)}
+        **{
+            **mc.__dict__,
+            "stiffness": lambda ph: np.where(np.asarray(ph) > 0.5, np.nan, 2e8),
+            "table_stiffness": poisoned,
+        }
     )
     bad = AssembledSystem(**{**bad.__dict__, "meshes": (nan_mesh,)})
     stepper = NewmarkStepper(bad, specs)
