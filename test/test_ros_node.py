@@ -212,6 +212,7 @@ def experiment(tmp_path_factory: pytest.TempPathFactory) -> Experiment:
         time.sleep(1.0)
         ex.rss["after_burst"] = rss_bytes(sim.pid)
         ex.diag["after_burst"] = probe.latest_status(": setpoints") or {}
+        ex.diag["sim_after_burst"] = probe.latest_status(": simulation") or {}
         # temperature step
         ex.marks["temperature_step_sent"] = probe.sim_time()
         probe.set_temperature(TEMP_1)
@@ -340,9 +341,13 @@ def test_setpoint_burst_neither_stalls_stream_nor_grows_memory(experiment: Exper
     growth = experiment.rss["after_burst"] - experiment.rss["before_burst"]
     assert growth < 20e6, f"node RSS grew by {growth / 1e6:.1f} MB during the burst"
     sp = experiment.diag["after_burst"]
-    # the setpoint subscriptions keep the last 10 messages: under a flood stale ones may be
-    # superseded before they are read (only the latest target matters); most are still checked
-    assert int(sp["refused_total"]) >= experiment.bad_setpoints + 0.5 * (experiment.burst_sent // 2)
+    # The setpoint subscriptions keep the last 10 messages (only the latest target matters), so under
+    # a flood superseded messages may never be read and the refusal count depends on machine load.
+    # What must hold: invalid setpoints of the burst were refused, and none became a target (the
+    # valid ones of the burst repeat the current targets).
+    assert int(sp["refused_total"]) > experiment.bad_setpoints, sp
+    sim = experiment.diag["sim_after_burst"]
+    assert float(sim["target_speed_rpm"]) == SPEED_1 and float(sim["target_temperature_c"]) == TEMP_0, sim
 
 
 def test_runtime_parameter_changes_are_validated(experiment: Experiment) -> None:

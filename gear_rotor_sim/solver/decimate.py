@@ -35,7 +35,7 @@ def design_taps(k: int) -> np.ndarray:
     return firwin(numtaps, cutoff, window=("kaiser", beta))
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=True, nogil=True)
 def fir_decimate(buf: np.ndarray, h: np.ndarray, start: int, k: int, n_out: int) -> np.ndarray:
     """``y[i, c] = sum_m h[m] buf[start + i k - m, c]``: only the kept outputs are computed.
 

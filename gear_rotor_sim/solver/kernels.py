@@ -275,7 +275,7 @@ def _rows_dot(cr: np.ndarray, ci: np.ndarray, zr: np.ndarray, zi: np.ndarray, o:
     return s
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", nogil=True)
 def run_chunk(
     dense: bool,
     zr: np.ndarray,
@@ -548,7 +548,7 @@ def _range_dot(cr: np.ndarray, ci: np.ndarray, zr: np.ndarray, zi: np.ndarray, l
     return s
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", nogil=True)
 def run_chunk_one_mesh(
     zr: np.ndarray,
     zi: np.ndarray,
