@@ -285,3 +285,94 @@ def test_sweep_grid_order_and_cache(tmp_path: Path) -> None:
     np.testing.assert_array_equal(back.data["node_amp_max"], res.data["node_amp_max"])
     with pytest.raises(KeyError, match="not in sweep"):
         res.index(125.0)
+
+
+# ----------------------------------------------------------------------------------- mesh stiffness scale
+def test_mesh_stiffness_scale_static_deflection_and_damping_ratio() -> None:
+    """Static mesh force = T2 / r_b2 (hand formula) at every scale; deflection ~ 1/scale; zeta kept."""
+    from gear_rotor_sim.system import static_solution
+
+    r_b2 = 49 * 3e-3 / 2 * np.cos(np.radians(20.0))
+    force = 200.0 / r_b2  # N, load torque 200 N m on the 49-tooth gear
+    base = bif.build_system(Case(25.0))
+    scaled = bif.build_system(Case(25.0, overrides=(("mesh_stiffness_scale", 1.34),)))
+    m0, m1 = base.meshes[0], scaled.meshes[0]
+    assert m1.mean_stiffness == pytest.approx(1.34 * m0.mean_stiffness, rel=1e-12)
+    np.testing.assert_allclose(m1.table_stiffness, 1.34 * m0.table_stiffness, rtol=1e-12)
+    ph = np.array([0.05, 0.4, 0.9])
+    np.testing.assert_allclose(m1.stiffness(ph), 1.34 * m0.stiffness(ph), rtol=1e-12)
+    assert m1.damping / np.sqrt(m1.mean_stiffness) == pytest.approx(m0.damping / np.sqrt(m0.mean_stiffness))
+    defl = []
+    for s in (base, scaled):
+        m = s.meshes[0]
+        d = float(m.line_of_action @ static_solution(s)) - m.half_backlash
+        assert m.mean_stiffness * d == pytest.approx(force, rel=0.02)
+        defl.append(d)
+    assert defl[1] / defl[0] == pytest.approx(1 / 1.34, rel=0.02)
+    with pytest.raises(ValueError, match="mesh_stiffness_scale"):
+        bif.scale_mesh_stiffness(base, -1.0)
+    with pytest.raises(ValueError, match="overrides"):
+        bif.build_config(Case(25.0, overrides=(("stiffness_scale", 1.0),)))
+
+
+def test_band_vs_scale_figure(tmp_path: Path) -> None:
+    from gear_rotor_sim.analysis.figures import plot_band_vs_scale
+
+    rows = [
+        {
+            "panel": "25C",
+            "scale": s,
+            "lo": 16000 * s**0.5,
+            "hi": 19000 * s**0.5,
+            "pred_lo": 16000 * s**0.5,
+            "pred_hi": 19000 * s**0.5,
+        }
+        for s in (0.75, 1.0)
+    ] + [{"panel": "25C", "scale": 1.34, "lo": np.nan, "hi": np.nan, "pred_lo": 18500, "pred_hi": 22000}]
+    png = plot_band_vs_scale(rows, tmp_path / "b.png", {"25C": (13500.0, 14700.0)})
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+# ----------------------------------------------------------------------------------- CLI bad input
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["figures", "bifurcation", "--from", "/nonexistent/b.npz", "--out", "x.png"], "does not exist"),
+        (["figures", "bifurcation", "--bearing", "Z#", "--out", "x.png"], "--bearing"),
+        (["figures", "bifurcation", "--periods", "5", "--out", "x.png"], "--periods"),
+        (["figures", "bifurcation", "--steps-per-mesh", "2", "--out", "x.png"], "--steps-per-mesh"),
+        (["figures", "bifurcation", "--workers", "0", "--out", "x.png"], "--workers"),
+        (["figures", "bifurcation", "--out", "x.pdf"], ".png"),
+        (["figures", "orbit", "--speed", "-3", "--out", "x.png"], "--speed"),
+        (["figures", "spectrum", "--speed", "1000", "--channel", "nope", "--out", "x.png"], "--channel"),
+        (["figures", "phase", "--speed", "1000", "--temperature", "900", "--out", "x.png"], "material range"),
+        (["sweep", "--bearings", "Q#", "--out", "s.npz"], "bearings"),
+        (["sweep", "--orbit-nodes", "99", "--out", "s.npz"], "--orbit-nodes"),
+        (["sweep", "--orbit-nodes", "x", "--out", "s.npz"], "--orbit-nodes"),
+    ],
+)
+def test_cli_bad_input_is_one_clear_line(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from gear_rotor_sim import cli
+
+    argv = [str(tmp_path / a) if a in ("x.png", "x.pdf", "s.npz") else a for a in argv]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"gear-rotor-sim {argv[0]}: error:" in err and message in err
+    assert "Traceback" not in err
+
+
+def test_cli_from_a_file_of_the_wrong_kind(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from gear_rotor_sim import cli
+
+    res = run_bifurcation(
+        Case(25.0), [300.0], SETTINGS, workers=1, progress=False, segment_fn=_duffing_segment
+    )
+    path = res.save(tmp_path / "b.npz")
+    png = tmp_path / "f.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n")
+    assert cli.main(["figures", "bearing-force", "--from", str(path), "--out", str(tmp_path / "y.png")]) == 2
+    assert "not a saved sweep result" in capsys.readouterr().err
+    assert cli.main(["figures", "bifurcation", "--from", str(png), "--out", str(tmp_path / "y.png")]) == 2
+    assert "not a .npz archive" in capsys.readouterr().err

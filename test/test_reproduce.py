@@ -79,3 +79,22 @@ def test_hot_node9_displacement_is_the_thermal_axial_growth(tiny: tuple[dict, Pa
     assert model == pytest.approx(u_um, rel=0.1)
     f = next(row["model_n"] for row in r["fig7_1000rpm"] if row["temperature_c"] == t)
     assert f > force  # the axial part alone is below the total
+
+
+def test_benchmark_uses_the_scripts_measure_when_present(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gear_rotor_sim.analysis import reproduce
+
+    script = tmp_path / "bench_solver.py"
+    script.write_text(
+        "def measure(quick: bool) -> dict:\n"
+        "    return {'steps_per_s': 1.5e6, 'rtf_3000rpm': 40.0, 'rtf_20000rpm': 6.0, 'quick': quick}\n",
+        encoding="utf-8",
+    )
+    monkeypatch.setattr(reproduce, "BENCH_SOLVER", script)
+    got = reproduce.benchmark(0.001, quick=True)
+    assert got["steps_per_s"] == 1.5e6 and got["quick"] is True
+    assert got["source"] == "benchmarks/bench_solver.py"
+    script.write_text("def main() -> None:\n    pass\n", encoding="utf-8")
+    assert reproduce._bench_solver_measure() is None

@@ -294,3 +294,96 @@ def plot_sensitivity(
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+LINESTYLES = ("-", "--", ":", "-.")
+
+
+def plot_bearing_force_scales(
+    sweep: SweepResult,
+    path: str | Path,
+    scales: Sequence[float],
+    temperatures_c: Sequence[float] = (25.0, 125.0, 225.0),
+    bearing: int = 2,
+    paper_points: Sequence[tuple[float, float, float]] = (),
+    base: SweepResult | None = None,
+) -> Path:
+    """Fig 7 for several mesh-stiffness scales: colour = temperature, line style = scale.
+
+    Parameters
+    ----------
+    sweep : SweepResult
+        Cases with the override ``(("mesh_stiffness_scale", s),)`` for each ``s`` in ``scales``
+        (bearings A#, thermal backlash).
+    scales : sequence of float
+        Stiffness scales to draw; a scale of 1 is taken from ``base`` when given (the plain cases).
+    base : SweepResult, optional
+        Sweep of the unmodified model (cases without overrides) on the same speeds.
+    paper_points : sequence of (temperature_c, speed_rpm, force_n)
+        The values quoted in the paper's text, drawn as markers.
+    """
+    fig = _figure(8.0, 4.6)
+    ax = fig.add_subplot()
+    for j, s in enumerate(scales):
+        for t in temperatures_c:
+            if s == 1.0 and base is not None:
+                src, ci = base, base.index(t, "A#")
+            else:
+                src, ci = sweep, sweep.index(t, "A#", overrides=(("mesh_stiffness_scale", float(s)),))
+            ax.plot(
+                src.speeds_rpm,
+                src.data["bearing_total_rms"][ci, :, bearing - 1],
+                lw=1,
+                ls=LINESTYLES[j % len(LINESTYLES)],
+                color=_color(t),
+                label=f"{t:g} C, k x {s:g}",
+            )
+    for t, sp, f in paper_points:
+        ax.plot([sp], [f], "o", mfc="none", color=_color(t), ms=8)
+    if paper_points:
+        ax.plot([], [], "o", mfc="none", color="k", label="paper (text)")
+    ax.set_xlabel("input speed (rpm)")
+    ax.set_ylabel(f"RMS total force, bearing {bearing} (N)")
+    ax.set_title(f"Bearing {bearing} force vs speed for mesh-stiffness scales (A#)", fontsize=10)
+    ax.legend(fontsize=7, ncol=len(scales))
+    return _save(fig, path)
+
+
+def plot_band_vs_scale(
+    rows: Sequence[dict[str, Any]],
+    path: str | Path,
+    paper_windows: dict[str, tuple[float, float]],
+    titles: dict[str, str] | None = None,
+) -> Path:
+    """Location of the main chaotic band against the mesh-stiffness scale, per Fig 6 panel.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Each with ``panel`` (key), ``scale``, ``lo`` and ``hi`` (rpm; NaN when no band) and
+        ``pred_lo``/``pred_hi`` (the scale-1 band times ``sqrt(scale)``).
+    paper_windows : dict
+        Panel key -> the paper's chaotic window (rpm), drawn as a shaded band.
+    titles : dict, optional
+        Panel key -> legend label.
+    """
+    panels = list(dict.fromkeys(r["panel"] for r in rows))
+    fig = _figure(3.4 * len(panels), 3.8)
+    axes = fig.subplots(1, len(panels), sharey=True, squeeze=False)[0]
+    for ax, key in zip(axes, panels, strict=True):
+        rr = sorted((r for r in rows if r["panel"] == key), key=lambda r: r["scale"])
+        x = np.array([r["scale"] for r in rr])
+        for r in rr:
+            if np.isfinite(r["lo"]):
+                ax.plot([r["scale"]] * 2, [r["lo"], r["hi"]], color="tab:red", lw=6, alpha=0.7)
+        ax.plot(x, [r["pred_lo"] for r in rr], "k--", lw=0.8, label="scale-1 band x sqrt(scale)")
+        ax.plot(x, [r["pred_hi"] for r in rr], "k--", lw=0.8)
+        lo, hi = paper_windows[key]
+        ax.axhspan(lo, hi, color="tab:blue", alpha=0.2, label="paper window")
+        ax.plot([], [], color="tab:red", lw=6, alpha=0.7, label="model chaotic band")
+        ax.set_xlabel("mesh stiffness scale")
+        ax.set_title((titles or {}).get(key, key), fontsize=9)
+        ax.set_xticks(x)
+    axes[0].set_ylabel("input speed (rpm)")
+    axes[0].legend(fontsize=7, loc="lower right")
+    return _save(fig, path)

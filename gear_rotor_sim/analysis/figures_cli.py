@@ -24,9 +24,16 @@ from pathlib import Path
 import numpy as np
 
 from gear_rotor_sim.analysis.sweep_cli import (
+    BEARING_TYPES,
+    MIN_CLASSIFY_PERIODS,
+    InputError,
     add_run_arguments,
+    check_run_arguments,
+    load_result,
+    parse_bearings,
     parse_floats,
     parse_speeds,
+    run_reporting_errors,
     settings_from,
 )
 
@@ -117,7 +124,7 @@ def _sweep(args: argparse.Namespace, speeds: np.ndarray, bearings: list[str]):  
     from gear_rotor_sim.analysis.sweep import SweepResult, grid_cases, run_sweep
 
     if args.source:
-        return SweepResult.load(args.source)
+        return load_result(args.source, SweepResult.load, "sweep result ('gear-rotor-sim sweep --out')")
     res = run_sweep(
         grid_cases(args.temperatures, bearings),
         speeds,
@@ -131,15 +138,46 @@ def _sweep(args: argparse.Namespace, speeds: np.ndarray, bearings: list[str]):  
     return res
 
 
+def check_arguments(args: argparse.Namespace) -> None:
+    """Validate the options of ``figures KIND`` before anything is simulated (:class:`InputError`)."""
+    if Path(args.out).suffix.lower() != ".png":
+        raise InputError(f"--out: {args.out!r} must be a .png file")
+    needs_classes = args.kind in ("bifurcation", "phase", "poincare")
+    check_run_arguments(args, MIN_CLASSIFY_PERIODS if needs_classes else 1)
+    if hasattr(args, "bearing") and isinstance(args.bearing, str) and args.bearing not in BEARING_TYPES:
+        raise InputError(f"--bearing: {args.bearing!r} must be one of {', '.join(BEARING_TYPES)}")
+    if args.kind == "bearing-force" and not 1 <= args.bearing <= 4:
+        raise InputError(f"--bearing: {args.bearing} must be a bearing number in 1..4")
+    if hasattr(args, "bearings"):
+        parse_bearings(args.bearings)
+    if hasattr(args, "speed") and not (np.isfinite(args.speed) and args.speed > 0):
+        raise InputError(f"--speed: {args.speed!r} must be finite and > 0 rpm")
+    if hasattr(args, "temperatures") and not args.temperatures:
+        raise InputError("--temperatures: give at least one temperature")
+    if args.kind == "spectrum":
+        from gear_rotor_sim.analysis.bifurcation import build_system
+        from gear_rotor_sim.solver.newmark import parse_channels
+
+        try:
+            parse_channels(build_system(_case(args)), [args.channel])
+        except ValueError as exc:
+            raise InputError(f"--channel: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
+    return run_reporting_errors("figures", lambda: _run(args))
+
+
+def _run(args: argparse.Namespace) -> int:
     from gear_rotor_sim.analysis import figures
 
+    check_arguments(args)
     out = Path(args.out)
     if args.kind == "bifurcation":
         from gear_rotor_sim.analysis.bifurcation import BifurcationResult, run_bifurcation
 
         if args.source:
-            res = BifurcationResult.load(args.source)
+            res = load_result(args.source, BifurcationResult.load, "bifurcation result (--cache FILE.npz)")
         else:
             res = run_bifurcation(
                 _case(args),
@@ -185,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
         res = _sweep(args, args.speeds, ["A#"])
         figures.plot_bearing_force(res, out, args.temperatures, bearing=args.bearing)
     else:
-        bearings = [b.strip() for b in args.bearings.split(",") if b.strip()]
+        bearings = parse_bearings(args.bearings)
         res = _sweep(args, np.array([args.speed]), bearings)
         if args.kind == "displacement":
             figures.plot_displacement(res, out, args.speed, args.temperatures, bearings)

@@ -23,6 +23,7 @@ import dataclasses
 import json
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -84,6 +85,12 @@ PANELS = {
     "225C": Case(225.0, "A#", True),
     "225C_fixed": Case(225.0, "A#", False),
 }
+#: Mesh-stiffness scale that turns the potential-energy mean stiffness of the paper's gears into the
+#: ISO 6336-1 value c_gamma_alpha b (4.235e8 / 3.155e8 N/m at 25 C, docs/mesh_stiffness.md).
+ISO_SCALE = 1.34
+#: Its inverse: the mean stiffness a resonance band at the paper's speeds would need (k x 0.745).
+INV_ISO_SCALE = 0.75
+STIFFNESS_SCALES = (INV_ISO_SCALE, 0.87, 1.0, 1.15, ISO_SCALE)
 PANEL_TITLES = {
     "25C": "(a) 25 C",
     "225C": "(b) 225 C, thermal backlash",
@@ -116,6 +123,11 @@ class Plan:
         Simulated seconds per benchmark speed.
     single_speed_figures : bool
         Draw the phase portraits, Poincare maps and spectra at 3000 and 14000 rpm.
+    stiffness_scales : tuple of float
+        Mesh-stiffness scales of the stiffness study (Fig 7 sweep and 19000 rpm point per scale);
+        empty: no stiffness study.
+    stiffness_bifurcations : tuple of (str, float)
+        (Fig 6 panel key, scale) bifurcation runs of the stiffness study (scale 1 is the main run).
     """
 
     name: str
@@ -127,6 +139,8 @@ class Plan:
     sensitivity: bool
     bench_duration_s: float
     single_speed_figures: bool = True
+    stiffness_scales: tuple[float, ...] = ()
+    stiffness_bifurcations: tuple[tuple[str, float], ...] = ()
 
     @staticmethod
     def level(name: str) -> Plan:
@@ -146,6 +160,17 @@ class Plan:
                 ("A#", "B#", "C#"),
                 True,
                 0.5,
+                stiffness_scales=STIFFNESS_SCALES,
+                stiffness_bifurcations=(
+                    ("25C", INV_ISO_SCALE),
+                    ("25C", 0.87),
+                    ("25C", 1.15),
+                    ("25C", ISO_SCALE),
+                    ("225C", INV_ISO_SCALE),
+                    ("225C", ISO_SCALE),
+                    ("225C_fixed", INV_ISO_SCALE),
+                    ("225C_fixed", ISO_SCALE),
+                ),
             )
         if name == "quick":
             return Plan(
@@ -157,6 +182,8 @@ class Plan:
                 ("A#", "B#", "C#"),
                 True,
                 0.1,
+                stiffness_scales=STIFFNESS_SCALES,
+                stiffness_bifurcations=(("25C", INV_ISO_SCALE), ("25C", ISO_SCALE)),
             )
         if name == "tiny":
             return Plan(
@@ -207,38 +234,90 @@ def static_axial_estimate(temperature_c: float, bearing_type: str = "A#") -> dic
     }
 
 
-def benchmark(duration_s: float) -> dict[str, float]:
-    """Steps per second and real-time factors of the streaming simulator (25 C, A#, 32 steps/mesh).
+BENCH_SOLVER = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_solver.py"
 
-    Uses ``benchmarks/bench_solver.py``'s ``measure`` function when it provides one; otherwise
-    times ``Simulator.advance`` after a warm-up chunk (set-up excluded; one process).
+
+def _bench_solver_measure(path: Path | None = None) -> Callable[..., dict] | None:
+    """``measure`` of ``benchmarks/bench_solver.py`` (loaded by path; not a package), if it has one."""
+    path = BENCH_SOLVER if path is None else path
+    if not path.is_file():
+        return None
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_gear_rotor_sim_bench_solver", path)
+    if spec is None or spec.loader is None:
+        return None
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except Exception:
+        return None
+    fn = getattr(module, "measure", None)
+    return fn if callable(fn) else None
+
+
+def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) -> dict[str, Any]:
+    """Steps per second and real-time factors of the solver (25 C, A#, 32 steps per mesh period).
+
+    Uses ``measure(quick)`` of ``benchmarks/bench_solver.py`` when that script provides it (keys
+    ``steps_per_s``, ``rtf_3000rpm``, ``rtf_20000rpm``); otherwise times ``Simulator.advance`` over
+    ``duration_s`` simulated seconds after a warm-up chunk (set-up excluded; one process, BLAS
+    single-threaded).
+
+    Parameters
+    ----------
+    duration_s : float
+        Simulated seconds per speed of the fallback measurement.
+    quick : bool
+        Passed to the script's ``measure``.
+    use_script : bool
+        Try the benchmark script first.
     """
+    if use_script:
+        measure = _bench_solver_measure()
+        if measure is not None:
+            try:
+                got = dict(measure(quick=quick))
+                if {"steps_per_s", "rtf_3000rpm", "rtf_20000rpm"} <= set(got):
+                    got.setdefault("method", f"benchmarks/bench_solver.py measure(quick={quick})")
+                    got["source"] = "benchmarks/bench_solver.py"
+                    return got
+            except Exception as exc:
+                msg = f"reproduce: bench_solver.measure failed ({exc!r}); timing Simulator.advance"
+                print(msg, file=sys.stderr)
+
     from gear_rotor_sim.analysis.bifurcation import restore_blas_threads, set_blas_threads
     from gear_rotor_sim.examples import paper_gearbox
     from gear_rotor_sim.simulator import Simulator
 
-    out: dict[str, float] = {}
+    out: dict[str, Any] = {}
     rates = []
     blas_before = set_blas_threads(1)  # one core
-    for rpm in (3000.0, 20000.0):
-        sim = Simulator(
-            paper_gearbox(),
-            speed_rpm=rpm,
-            temperature_c=25.0,
-            output_rate_hz=10000.0,
-            channels=["dte"],
-            steps_per_mesh=32,
-        )
-        sim.advance(min(0.01, duration_s))
-        t0 = time.perf_counter()
-        sim.advance(duration_s)
-        wall = time.perf_counter() - t0
-        steps = duration_s * rpm / 60.0 * 29 * 32
-        rates.append(steps / wall)
-        out[f"rtf_{int(rpm)}rpm"] = duration_s / wall
-    restore_blas_threads(blas_before)
+    try:
+        for rpm in (3000.0, 20000.0):
+            sim = Simulator(
+                paper_gearbox(),
+                speed_rpm=rpm,
+                temperature_c=25.0,
+                output_rate_hz=10000.0,
+                channels=["dte"],
+                steps_per_mesh=32,
+            )
+            sim.advance(min(0.01, duration_s))
+            t0 = time.perf_counter()
+            sim.advance(duration_s)
+            wall = time.perf_counter() - t0
+            steps = duration_s * rpm / 60.0 * 29 * 32
+            rates.append(steps / wall)
+            out[f"rtf_{int(rpm)}rpm"] = duration_s / wall
+    finally:
+        restore_blas_threads(blas_before)
     out["steps_per_s"] = float(np.mean(rates))
-    out["method"] = "Simulator.advance timed after a warm-up chunk, one process, 32 steps per mesh period"  # type: ignore[assignment]
+    out["method"] = (
+        f"Simulator.advance over {duration_s:g} s simulated, timed after a warm-up chunk, one process, "
+        "DTE channel at 10 kHz, 32 steps per mesh period"
+    )
+    out["source"] = "reproduce.benchmark"
     return out
 
 
@@ -299,7 +378,9 @@ def compute(
 
     # Fig 6 ---------------------------------------------------------------------------------------
     bif: dict[str, BifurcationResult] = {}
+    load_avg: dict[str, list[float]] = {}
     for key, case in PANELS.items():
+        load_before = _loadavg()
         t0 = time.perf_counter()
         res = run_bifurcation(
             case,
@@ -310,6 +391,8 @@ def compute(
             progress=progress,
         )
         res.wall_time_s = time.perf_counter() - t0
+        load_avg[key] = [load_before, _loadavg()]
+        res.meta["loadavg_1min_before_after"] = load_avg[key]
         res.save(data_dir / f"fig6_{key}.npz")
         bif[key] = res
     figures.plot_bifurcation(
@@ -329,6 +412,8 @@ def compute(
             "n_speeds": int(res.speeds_rpm.size),
             "n_periods": res.settings.n_periods,
             "wall_time_s": res.wall_time_s,
+            "workers": res.meta.get("workers"),
+            "loadavg_1min_before_after": load_avg[key],
             "period1_fraction_500_7300": float(
                 np.mean([lab == "period-1" for lab, m in zip(labels, low, strict=True) if m])
             ),
@@ -473,9 +558,201 @@ def compute(
             "RMS total force (N)",
         )
 
+    # Mesh-stiffness scale --------------------------------------------------------------------------
+    if plan.stiffness_scales:
+        r["stiffness"] = _stiffness_study(plan, bif, s7, data_dir, fig_dir, workers, scheduler, progress)
+
     # Benchmark -----------------------------------------------------------------------------------
-    r["benchmark"] = benchmark(plan.bench_duration_s)
+    r["benchmark"] = benchmark(
+        plan.bench_duration_s, quick=plan.name != "full", use_script=plan.name != "tiny"
+    )
     return r
+
+
+def _loadavg() -> float:
+    """1-minute load average (NaN where unavailable)."""
+    try:
+        import os
+
+        return float(os.getloadavg()[0])
+    except (AttributeError, OSError):
+        return float("nan")
+
+
+def iso_stiffness_ratio(temperature_c: float = 25.0) -> dict[str, float]:
+    """Mean potential-energy mesh stiffness of the model against ISO 6336-1 ``c_gamma_alpha b``."""
+    from gear_rotor_sim.analysis.bifurcation import build_system
+    from gear_rotor_sim.gears import paper_gear_pair
+
+    cfg = build_config(Case(temperature_c))
+    mat = cfg.materials[cfg.gears[0].material]
+    iso = paper_gear_pair(mat).iso_mesh_stiffness(temperature_c)["mesh_stiffness"]
+    k_pe = float(build_system(Case(temperature_c)).meshes[0].mean_stiffness)
+    return {"k_pe": k_pe, "k_iso": float(iso), "iso_over_pe": float(iso) / k_pe}
+
+
+def _stiffness_study(
+    plan: Plan,
+    bif: dict[str, BifurcationResult],
+    s7: Any,
+    data_dir: Path,
+    fig_dir: Path,
+    workers: int | None,
+    scheduler: str | None,
+    progress: bool,
+) -> dict[str, Any]:
+    """Fig 6 band location, Fig 7 curves and the 19000 rpm Fig 8 points against the mesh-stiffness scale.
+
+    The scale multiplies the potential-energy mesh stiffness at every phase (damping ratio kept,
+    :func:`gear_rotor_sim.analysis.bifurcation.scale_mesh_stiffness`); scale 1 is the model of the
+    other sections, ``ISO_SCALE`` makes its mean equal to the ISO 6336-1 value.
+    """
+    from gear_rotor_sim.analysis import figures
+
+    out: dict[str, Any] = {"iso": iso_stiffness_ratio(25.0), "scales": list(plan.stiffness_scales)}
+    # Fig 6: band location per (panel, scale)
+    rows = []
+    results: dict[tuple[str, float], BifurcationResult] = {(k, 1.0): v for k, v in bif.items()}
+    for key, scale in plan.stiffness_bifurcations:
+        base = PANELS[key]
+        case = dataclasses.replace(base, overrides=(("mesh_stiffness_scale", float(scale)),))
+        t0 = time.perf_counter()
+        res = run_bifurcation(
+            case,
+            np.array(plan.fig6_speeds),
+            plan.fig6,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+        )
+        res.wall_time_s = time.perf_counter() - t0
+        res.save(data_dir / f"fig6_{key}_k{scale:g}.npz")
+        results[(key, float(scale))] = res
+    for (key, scale), res in sorted(results.items(), key=lambda kv: (list(PANELS).index(kv[0][0]), kv[0][1])):
+        if not any(k == key for k, _ in plan.stiffness_bifurcations):
+            continue
+        paper = PAPER_CHAOS[key][0]
+        base_lo, base_hi = _main_band(bif[key].chaotic_windows(merge_gap=1))
+        chaos = res.chaotic_windows(merge_gap=1)
+        lo, hi, jac = _overlap(chaos, paper)
+        main_lo, main_hi = _main_band(chaos)
+        rows.append(
+            {
+                "panel": key,
+                "scale": scale,
+                "chaotic_windows": chaos,
+                "main_band": [main_lo, main_hi],
+                "near_paper": [lo, hi],
+                "jaccard": jac,
+                "paper": list(paper),
+                "pred_lo": base_lo * np.sqrt(scale),
+                "pred_hi": base_hi * np.sqrt(scale),
+                "wall_time_s": res.wall_time_s,
+                "label_at_paper_mid": _label_at(res, 0.5 * (paper[0] + paper[1])),
+                "sequence": _condensed(res.windows(), 3, res.speeds_rpm),
+            }
+        )
+    out["fig6"] = rows
+    # the main band (the widest chaotic window above 12000 rpm) for the figure
+    fig_rows = [
+        {
+            "panel": x["panel"],
+            "scale": x["scale"],
+            "lo": x["main_band"][0],
+            "hi": x["main_band"][1],
+            "pred_lo": x["pred_lo"],
+            "pred_hi": x["pred_hi"],
+        }
+        for x in rows
+    ]
+    figures.plot_band_vs_scale(
+        fig_rows,
+        fig_dir / "fig6_band_vs_stiffness_scale.png",
+        {k: PAPER_CHAOS[k][0] for k in PANELS},
+        PANEL_TITLES,
+    )
+    panel25 = [results[("25C", sc)] for sc in sorted({sc for k, sc in results if k == "25C"})]
+    figures.plot_bifurcation(
+        panel25,
+        fig_dir / "fig6_25C_stiffness_scales.png",
+        [
+            f"(a) 25 C, mesh stiffness x {dict(r.case.overrides).get('mesh_stiffness_scale', 1.0):g}"
+            for r in panel25
+        ],
+        [PAPER_CHAOS["25C"]] * len(panel25),
+    )
+    # Fig 7 curves and Fig 8 points per scale
+    scaled = [sc for sc in plan.stiffness_scales if sc != 1.0]
+    overrides = [(("mesh_stiffness_scale", float(sc)),) for sc in scaled]
+    s7k = run_sweep(
+        grid_cases([25.0, 125.0, 225.0], ["A#"], [True], overrides),
+        np.array(plan.fig7_speeds),
+        plan.sweep,
+        workers=workers,
+        scheduler=scheduler,
+        progress=progress,
+    )
+    s7k.save(data_dir / "fig7_sweep_stiffness_scales.npz")
+    figures.plot_bearing_force_scales(
+        s7k,
+        fig_dir / "fig7_stiffness_scales.png",
+        plan.stiffness_scales,
+        paper_points=PAPER_FIG7,
+        base=s7,
+    )
+    s19k = run_sweep(
+        grid_cases([25.0, 125.0, 225.0], ["A#"], [True], overrides),
+        np.array([19000.0]),
+        plan.sweep,
+        workers=workers,
+        scheduler=scheduler,
+        progress=progress,
+    )
+    s19k.save(data_dir / "fig8_19000rpm_stiffness_scales.npz")
+    f7rows = []
+    for sc in plan.stiffness_scales:
+        for t, sp, paper_n in PAPER_FIG7:
+            if sc == 1.0:
+                src, ci = s7, s7.index(t)
+            else:
+                src, ci = s7k, s7k.index(t, overrides=(("mesh_stiffness_scale", float(sc)),))
+            f2 = src.data["bearing_total_rms"][ci, :, 1]
+            f7rows.append(
+                {
+                    "scale": sc,
+                    "temperature_c": t,
+                    "speed_rpm": sp,
+                    "paper_n": paper_n,
+                    "model_n": float(src.get("bearing_total_rms", ci, sp)[1]),
+                    "peak_speed_rpm": float(src.speeds_rpm[int(np.argmax(f2))]),
+                    "peak_n": float(np.max(f2)),
+                }
+            )
+    out["fig7"] = f7rows
+    f8rows = []
+    for sc in scaled:
+        for bt, t, node, paper_um in PAPER_FIG8:
+            if bt != "A#" or node != 9:
+                continue
+            ci = s19k.index(t, overrides=(("mesh_stiffness_scale", float(sc)),))
+            f8rows.append(
+                {
+                    "scale": sc,
+                    "temperature_c": t,
+                    "paper_um": paper_um,
+                    "model_um": float(s19k.get("node_amp_max", ci, 19000.0)[node - 1] * 1e6),
+                }
+            )
+    out["fig8_node9"] = f8rows
+    return out
+
+
+def _main_band(windows: list[tuple[float, float]], above_rpm: float = 11000.0) -> tuple[float, float]:
+    """The widest chaotic window ending above ``above_rpm`` (the primary-resonance band)."""
+    cand = [(a, b) for a, b in windows if b >= above_rpm]
+    if not cand:
+        return float("nan"), float("nan")
+    return max(cand, key=lambda w: w[1] - w[0])
 
 
 def _single_speed_figures(fig_dir: Path, plan: Plan) -> None:
@@ -664,16 +941,24 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
     )
     add("")
     add(
-        "| panel | wall time (s, set-up included) | period-1 share of 500-7300 rpm "
-        "| model chaotic windows (rpm) | paper chaotic window |"
+        "| panel | wall time (s, set-up included) | local processes | load average (1 min) before / after "
+        "| period-1 share of 500-7300 rpm | model chaotic windows (rpm) | paper chaotic window |"
     )
-    add("|---|---|---|---|---|")
+    add("|---|---|---|---|---|---|---|")
     for key in PANELS:
         d = f6[key]
+        la = d.get("loadavg_1min_before_after", [float("nan")] * 2)
         add(
-            f"| {PANEL_TITLES[key]} | {d['wall_time_s']:.1f} | {d['period1_fraction_500_7300']:.0%} | "
+            f"| {PANEL_TITLES[key]} | {d['wall_time_s']:.1f} | {d.get('workers', '-')} | "
+            f"{la[0]:.2f} / {la[1]:.2f} | {d['period1_fraction_500_7300']:.0%} | "
             f"{_fmt_windows(d['chaotic_windows'])} | {_fmt_windows(d['paper_chaotic_windows'])} |"
         )
+    add("")
+    add(
+        "Wall time = `run_bifurcation` from the call to the result (building the system, compiling and "
+        "forking the workers, every speed's eigendecomposition and integration, the reduction), measured "
+        "in the reproduce run; the load average is that of the shared machine (other jobs running)."
+    )
     add("")
     add("Main chaotic window next to the paper's (model extent within +-1500 rpm of it, Jaccard overlap):")
     add("")
@@ -726,6 +1011,8 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
     for extra in REPORT_FIG6:
         add(extra)
     add("")
+    if "stiffness" in r:
+        _write_stiffness_section(add, r)
     b = r["benchmark"]
     add("## Solver speed")
     add("")
@@ -733,11 +1020,108 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         f"{b['steps_per_s'] / 1e6:.2f} million steps per second; real-time factor "
         f"{b['rtf_3000rpm']:.1f} at 3000 rpm and {b['rtf_20000rpm']:.1f} at 20000 rpm "
     )
-    add(f"({b.get('method', '')}).")
+    add(f"({b.get('method', '')}; source: {b.get('source', '-')}).")
     add("")
     path = out / "REPRODUCTION.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
+
+
+def _write_stiffness_section(add: Callable[[str], None], r: dict[str, Any]) -> None:
+    """The mesh-stiffness-scale study: Fig 6 band location, Fig 7 and Fig 8 values per scale."""
+    st = r["stiffness"]
+    iso = st["iso"]
+    add("## Sensitivity to the mesh stiffness scale")
+    add("")
+    add(
+        "The paper gives the potential-energy TVMS only as equations. Ours has a mean of "
+        f"{iso['k_pe']:.3e} N/m at 25 C, {1 / iso['iso_over_pe']:.3f} of the ISO 6336-1 value "
+        f"c_gamma_alpha b = {iso['k_iso']:.3e} N/m "
+    )
+    add(
+        "(`docs/mesh_stiffness.md`). The stiffness scale multiplies k_m(t) at every mesh phase "
+        "(the shape over the mesh cycle is unchanged) and the mesh damping by sqrt(scale), "
+        "so the damping ratio stays 0.07 "
+        "(`Case(..., overrides=(('mesh_stiffness_scale', s),))`, "
+        "`gear_rotor_sim.analysis.bifurcation.scale_mesh_stiffness`). "
+        f"Scale {ISO_SCALE:g} is the ISO-equivalent stiffness; scale {INV_ISO_SCALE:g} is its inverse."
+    )
+    add("")
+    add("### Fig 6: location of the main chaotic band")
+    add("")
+    add(
+        "Main band = the widest chaotic window (neighbouring chaotic windows separated by one grid speed "
+        "merged) reaching above 11000 rpm; the prediction moves the scale-1 band by sqrt(scale) "
+        "(a resonance at fixed mass). The grid ends at 20000 rpm, so a band reaching 20000 rpm is cut there."
+    )
+    add("")
+    add(
+        "| panel | scale | mean k_m at 25 C (N/m) | model main band (rpm) | sqrt(scale) x scale-1 band (rpm) "
+        "| paper (rpm) | edge errors (rpm) | overlap | model at paper mid-window | wall time (s) |"
+    )
+    add("|---|---|---|---|---|---|---|---|---|---|")
+    for x in st["fig6"]:
+        lo, hi = x["main_band"]
+        plo, phi = x["paper"]
+        band = f"{lo:.0f}-{hi:.0f}" if np.isfinite(lo) else "none"
+        err = f"{lo - plo:+.0f} / {hi - phi:+.0f}" if np.isfinite(lo) else "-"
+        pred = f"{x['pred_lo']:.0f}-{x['pred_hi']:.0f}" if np.isfinite(x["pred_lo"]) else "-"
+        add(
+            f"| {PANEL_TITLES[x['panel']]} | {x['scale']:g} | {iso['k_pe'] * x['scale']:.3e} | "
+            f"{band} | {pred} | "
+            f"{plo:.0f}-{phi:.0f} | {err} | {x['jaccard']:.0%} | {x['label_at_paper_mid']} | "
+            f"{x['wall_time_s']:.1f} |"
+        )
+    add("")
+    add("All chaotic windows per run:")
+    add("")
+    for x in st["fig6"]:
+        add(f"- {PANEL_TITLES[x['panel']]}, scale {x['scale']:g}: {_fmt_windows(x['chaotic_windows'])}")
+    add("")
+    add("![band vs scale](figures/fig6_band_vs_stiffness_scale.png)")
+    add("")
+    add("![Fig 6a per scale](figures/fig6_25C_stiffness_scales.png)")
+    add("")
+    add("### Figs 7 and 8 against the stiffness scale (bearings A#)")
+    add("")
+    scales = st["scales"]
+    add("| T (C) | speed (rpm) | paper (N) | " + " | ".join(f"k x {sc:g} (N)" for sc in scales) + " |")
+    add("|---|---|---|" + "---|" * len(scales))
+    f7 = {(x["scale"], x["temperature_c"], x["speed_rpm"]): x for x in st["fig7"]}
+    for t, sp, paper_n in PAPER_FIG7:
+        cells = " | ".join(f"{f7[(sc, t, sp)]['model_n']:.0f}" for sc in scales)
+        add(f"| {t:g} | {sp:g} | {paper_n:g} | {cells} |")
+    add("")
+    add("Speed of the largest bearing-2 force on the Fig 7 grid (the resonance peak), per scale:")
+    add("")
+    add("| T (C) | " + " | ".join(f"k x {sc:g}" for sc in scales) + " |")
+    add("|---|" + "---|" * len(scales))
+    for t in (25.0, 125.0, 225.0):
+        cells = " | ".join(
+            f"{f7[(sc, t, 1000.0)]['peak_speed_rpm']:.0f} rpm, {f7[(sc, t, 1000.0)]['peak_n']:.0f} N"
+            for sc in scales
+        )
+        add(f"| {t:g} | {cells} |")
+    add("")
+    add("![Fig 7 per scale](figures/fig7_stiffness_scales.png)")
+    add("")
+    base8 = {
+        x["temperature_c"]: x["model_um"] for x in r["fig8"] if x["node"] == 9 and x["bearing_type"] == "A#"
+    }
+    f8 = {(x["scale"], x["temperature_c"]): x["model_um"] for x in st["fig8_node9"]}
+    f8.update({(1.0, t): v for t, v in base8.items()})
+    add("Fig 8, node 9 at 19000 rpm (largest distance from the theoretical position):")
+    add("")
+    add("| T (C) | paper (um) | " + " | ".join(f"k x {sc:g} (um)" for sc in scales) + " |")
+    add("|---|---|" + "---|" * len(scales))
+    for bt, t, node, paper_um in PAPER_FIG8:
+        if bt == "A#" and node == 9:
+            cells = " | ".join(f"{f8[(sc, t)]:.1f}" if (sc, t) in f8 else "-" for sc in scales)
+            add(f"| {t:g} | {paper_um:g} | {cells} |")
+    add("")
+    for extra in REPORT_STIFFNESS:
+        add(extra)
+    add("")
 
 
 def _fig7_vars(r: dict[str, Any]) -> dict[str, float]:
@@ -806,6 +1190,7 @@ REPORT_FIG10 = [
     "model the axial thermal growth is along z and leaves the x-y orbit nearly unchanged, a difference",
     "we cannot resolve from the paper's text.",
 ]
+REPORT_STIFFNESS: list[str] = []
 REPORT_FIG6 = [
     "Why the model differs. The low-speed behaviour matches: period-1 over 500-7300 rpm at 25 C (99 % of",
     "the grid speeds; one narrow chaotic window near 1250 rpm) and at 7100 rpm in panels (a) and (b),",
@@ -896,11 +1281,30 @@ def summary_json(r: dict[str, Any]) -> dict[str, Any]:
             }
             for k in PANELS
         },
+        "stiffness_scale": _stiffness_json(r),
         "benchmark": {
             "steps_per_s": b["steps_per_s"],
             "rtf_3000rpm": b["rtf_3000rpm"],
             "rtf_20000rpm": b["rtf_20000rpm"],
         },
+    }
+
+
+def _stiffness_json(r: dict[str, Any]) -> dict[str, Any] | None:
+    """Main chaotic band and the Fig 7 points per mesh-stiffness scale (None when not run)."""
+    st = r.get("stiffness")
+    if not st:
+        return None
+    return {
+        "iso_over_potential_energy": st["iso"]["iso_over_pe"],
+        "fig6_main_band": [
+            {"panel": x["panel"], "scale": x["scale"], "model_rpm": x["main_band"], "paper_rpm": x["paper"]}
+            for x in st["fig6"]
+        ],
+        "fig7": [
+            {k: x[k] for k in ("scale", "temperature_c", "speed_rpm", "paper_n", "model_n")}
+            for x in st["fig7"]
+        ],
     }
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -69,6 +71,88 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
 
 
+BEARING_TYPES = ("A#", "B#", "C#")
+N_NODES = 18
+#: Fewest sampled mesh periods the motion classification accepts (2 x max period 8 + 2).
+MIN_CLASSIFY_PERIODS = 18
+
+
+class InputError(ValueError):
+    """A bad command-line value, reported as ``gear-rotor-sim COMMAND: error: ...`` (exit code 2)."""
+
+
+def check_run_arguments(args: argparse.Namespace, min_periods: int = 1) -> None:
+    """Validate the shared integration/execution options before anything is simulated.
+
+    Raises
+    ------
+    InputError
+        Naming the option, the value and what is allowed.
+    """
+    if not 8 <= args.steps_per_mesh <= 4096:
+        raise InputError(f"--steps-per-mesh: {args.steps_per_mesh} must be in 8..4096")
+    if args.periods < min_periods:
+        raise InputError(f"--periods: {args.periods} must be >= {min_periods}")
+    if args.transient < 0:
+        raise InputError(f"--transient: {args.transient} must be >= 0")
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers: {args.workers} must be >= 1")
+
+
+def parse_bearings(text: str) -> list[str]:
+    """Comma list of bearing types; each one of ``A#``, ``B#``, ``C#``."""
+    out = [b.strip() for b in text.split(",") if b.strip()]
+    bad = [b for b in out if b not in BEARING_TYPES]
+    if not out or bad:
+        raise InputError(f"bearings: {text!r} must be a comma list of {', '.join(BEARING_TYPES)}")
+    return out
+
+
+def parse_nodes(text: str) -> tuple[int, ...]:
+    """Comma list of 1-based node numbers (1..18)."""
+    try:
+        nodes = tuple(int(n) for n in text.split(",") if n.strip())
+    except ValueError:
+        raise InputError(f"--orbit-nodes: {text!r} is not a comma list of node numbers") from None
+    if not nodes or any(not 1 <= n <= N_NODES for n in nodes):
+        raise InputError(f"--orbit-nodes: {text!r}: nodes must be in 1..{N_NODES}")
+    return nodes
+
+
+def check_source(path: str | None) -> None:
+    """``--from``: the file must exist."""
+    if path is not None and not Path(path).is_file():
+        raise InputError(f"--from: {path!r} does not exist (give a .npz written by --cache or 'sweep --out')")
+
+
+def load_result(path: str, loader: Callable[[str], object], what: str) -> object:
+    """Load a saved result; a wrong or unreadable file becomes an :class:`InputError`."""
+    check_source(path)
+    import zipfile
+
+    if not zipfile.is_zipfile(path):
+        raise InputError(f"--from: {path!r} is not a .npz archive (expected a saved {what})")
+    try:
+        return loader(path)
+    except (ValueError, KeyError, OSError) as exc:
+        raise InputError(f"--from: {path!r} is not a saved {what} ({exc})") from None
+
+
+def run_reporting_errors(command: str, body: Callable[[], int]) -> int:
+    """Run ``body`` and report bad input on one line instead of a traceback.
+
+    ValueError (including configuration and material-range errors), KeyError (a case missing from a
+    saved sweep) and OSError (a missing or unwritable file) are printed as
+    ``gear-rotor-sim COMMAND: error: ...``; the exit code is then 2.
+    """
+    try:
+        return body()
+    except (ValueError, OSError, KeyError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"gear-rotor-sim {command}: error: {msg}", file=sys.stderr)
+        return 2
+
+
 def settings_from(args: argparse.Namespace) -> RunSettings:
     d = RunSettings()
     return RunSettings(args.transient, args.periods, args.steps_per_mesh, d.first_transient_factor)
@@ -89,15 +173,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    return run_reporting_errors("sweep", lambda: _run(args))
+
+
+def _run(args: argparse.Namespace) -> int:
     from gear_rotor_sim.analysis.sweep import grid_cases, run_sweep
 
-    bearings = [b.strip() for b in args.bearings.split(",") if b.strip()]
+    check_run_arguments(args)
+    bearings = parse_bearings(args.bearings)
+    orbit_nodes = parse_nodes(args.orbit_nodes)
+    if not args.temperatures:
+        raise InputError("--temperatures: give at least one temperature")
     cases = grid_cases(args.temperatures, bearings, args.backlash)
     res = run_sweep(
         cases,
         args.speeds,
         settings_from(args),
-        orbit_nodes=tuple(int(n) for n in args.orbit_nodes.split(",")),
+        orbit_nodes=orbit_nodes,
         workers=args.workers,
         scheduler=args.scheduler,
         progress=not args.no_progress,
