@@ -521,6 +521,36 @@ def run_chunk(
     return STATUS_OK, nsteps, n_fail
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _mesh_solve_one(
+    s: int, dm0: float, dmd0: float, am: float, bm: float, k: float, c: float, b: float
+) -> tuple[int, float]:
+    """One mesh: the consistent contact state and force, by the active set of :func:`mesh_solve`.
+
+    ``delta_m = dm0 + am F``, ``delta_m' = dmd0 + bm F``. The same states, force laws and
+    tolerances as ``_solve_states`` / ``_check_states`` for ``nm = 1``; returns state -9 when the
+    iteration does not settle (the caller then falls back to the general solver).
+    """
+    for _ in range(_MAX_ACTIVE_SET_ITER):
+        if s == 2 or s == -2:
+            sg = 1.0 if s == 2 else -1.0
+            f = (k * (dm0 - sg * b) + c * dmd0) / (1.0 - k * am - c * bm)  # Eq 25 in contact
+        elif s == 0:
+            f = 0.0
+        else:
+            sg = 1.0 if s == 1 else -1.0
+            f = (sg * b - dm0) / am  # pinned at delta_m = +-b*
+        dm = dm0 + am * f
+        dmd = dmd0 + bm * f
+        tol_d = 1e-12 * (abs(b) + abs(dm)) + 1e-20
+        tol_f = 1e-12 * (abs(f) + abs(c * dmd)) + 1e-20
+        ns = _natural_state(s, dm, dmd, f, c, b, tol_d, tol_f)
+        if ns == s:
+            return s, f
+        s = ns
+    return -9, 0.0
+
+
 @njit(cache=True, fastmath=_FM, error_model="numpy")
 def _table(tab: np.ndarray, phase: float) -> tuple[int, int, float]:
     """Periodic linear interpolation indices on the uniform grid ``arange(n) / n``."""
@@ -717,13 +747,19 @@ def run_chunk_one_mesh(
         b1[0] = av + h_v * pcomp
         am[0, 0] = gd + h_d * qcomp
         bm[0, 0] = gv + h_v * qcomp
-        kk[0] = k
-        ee[0] = e
-        ed[0] = ed_
-        its = mesh_solve(prev_state, a1, b1, am, bm, kk, cc, ee, ed, bb, new_state, force, work, rhs, trial)
-        if its < 0:
-            n_fail += 1
-        fm = force[0]
+        ns1, fm = _mesh_solve_one(prev_state[0], a1[0] - e, b1[0] - ed_, am[0, 0], bm[0, 0], k, cm, bst)
+        if ns1 != -9:
+            new_state[0] = ns1
+        else:  # rare: exhaustive search of the general solver
+            kk[0] = k
+            ee[0] = e
+            ed[0] = ed_
+            its = mesh_solve(
+                prev_state, a1, b1, am, bm, kk, cc, ee, ed, bb, new_state, force, work, rhs, trial
+            )
+            if its < 0:
+                n_fail += 1
+            fm = force[0]
         d = a1[0] + am[0, 0] * fm
         dd = b1[0] + bm[0, 0] * fm
         if not (np.isfinite(d) and np.isfinite(fm)):
