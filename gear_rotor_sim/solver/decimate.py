@@ -32,24 +32,30 @@ def design_taps(k: int) -> np.ndarray:
     q = 2 * int(np.ceil(n_min / (2.0 * k)))
     numtaps = q * k + 1
     cutoff = 0.5 * (PASSBAND_FRACTION + STOPBAND_FRACTION) / nyq
-    return firwin(numtaps, cutoff, window=("kaiser", beta))
+    taps = firwin(numtaps, cutoff, window=("kaiser", beta))
+    return 0.5 * (taps + taps[::-1])  # exactly symmetric (fir_decimate relies on it)
 
 
 @njit(cache=True, fastmath=True, nogil=True)
 def fir_decimate(buf: np.ndarray, h: np.ndarray, start: int, k: int, n_out: int) -> np.ndarray:
     """``y[i, c] = sum_m h[m] buf[start + i k - m, c]``: only the kept outputs are computed.
 
-    ``buf`` is (n_raw, nch) C-contiguous, so the channel loop is stride-1 and vectorises.
+    ``h`` must be symmetric (linear phase, as :func:`design_taps` gives), so the sum is evaluated as a
+    forward dot product over a contiguous window of one channel, which vectorises.
     """
     nch = buf.shape[1]
+    ntap = h.shape[0]
+    xt = np.ascontiguousarray(buf.T)
     y = np.zeros((n_out, nch))
-    for i in range(n_out):
-        base = start + i * k
-        for m in range(h.shape[0]):
-            hm = h[m]
-            row = base - m
-            for c in range(nch):
-                y[i, c] += hm * buf[row, c]
+    for c in range(nch):
+        x = xt[c]
+        for i in range(n_out):
+            lo = start + i * k - (ntap - 1)
+            seg = x[lo : lo + ntap]
+            acc = 0.0
+            for m in range(ntap):
+                acc += h[m] * seg[m]
+            y[i, c] = acc
     return y
 
 
