@@ -8,4 +8,7 @@ bash scripts/setup_env.sh
 set +u
 . scripts/env.sh
 set -u
+# One BLAS thread: the models are small (eigendecompositions of ~178x178 blocks); threaded BLAS on a
+# 2-core machine shared with the simulation was measured 10-100x slower (docs/solver.md).
+export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}
 exec python -m gear_rotor_sim.ros.demo "$@"

@@ -6,6 +6,9 @@ bash scripts/setup_env.sh
 set +u
 . scripts/env.sh
 set -u
+# One BLAS thread: the models are small (eigendecompositions of ~178x178 blocks); threaded BLAS on a
+# 2-core machine shared with the simulation was measured 10-100x slower (docs/solver.md).
+export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}
 echo "[test] ruff check"
 ruff check .
 ruff format --check . >/dev/null || { echo "[test] ruff format would change files:"; ruff format --check .; exit 1; }
