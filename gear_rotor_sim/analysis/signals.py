@@ -213,16 +213,26 @@ def envelope_spectrum(
     -----
     For ``(1 + m cos(2 pi fm t)) cos(2 pi fc t)`` the envelope spectrum shows ``m`` at ``fm``.
     """
-    x = np.asarray(x, dtype=float) - np.mean(x)
-    if band_hz is not None:
+    x = np.asarray(x, dtype=float)
+    if band_hz is None:
+        env = np.abs(_sig.hilbert(x - np.mean(x)))
+    else:
         lo, hi = band_hz
         nyq = 0.5 * sample_rate_hz
         if not 0 < lo < hi < nyq:
             raise ValueError(f"band_hz: need 0 < lo < hi < {nyq} Hz, got {band_hz}")
-        sos = _sig.butter(4, [lo, hi], btype="bandpass", fs=sample_rate_hz, output="sos")
-        x = _sig.sosfiltfilt(sos, x)
-    env = np.abs(_sig.hilbert(x))
+        env = np.abs(analytic_band(x, sample_rate_hz, (lo, hi)))
     return amplitude_spectrum(env, sample_rate_hz, window=window, detrend=True)
+
+
+def analytic_band(x: np.ndarray, fs: float, band: tuple[float, float]) -> np.ndarray:
+    """Analytic signal of ``x`` (mean removed) band-passed to ``band`` Hz.
+
+    4th-order Butterworth band-pass, zero phase (forward-backward), then the Hilbert transform; its
+    magnitude is the envelope used in bearing-fault analysis (here and in the calibration).
+    """
+    sos = _sig.butter(4, band, btype="bandpass", fs=fs, output="sos")
+    return _sig.hilbert(_sig.sosfiltfilt(sos, np.asarray(x, dtype=float) - np.mean(x)))
 
 
 def synchronous_average(

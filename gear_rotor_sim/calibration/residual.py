@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import signal as _sig
 
-from gear_rotor_sim.analysis.signals import amplitude_spectrum, resample_to_angle
+from gear_rotor_sim.analysis.signals import amplitude_spectrum, analytic_band, resample_to_angle
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
 
 FAMILIES = ("order", "envelope")
@@ -332,12 +332,6 @@ def order_coefficients(
     var = np.sum(np.abs(per - coef) ** 2, axis=0) / max(n_rev - 1, 1) / n_rev
     rot = np.exp(-2j * np.pi * orders * (angle0_rev % 1.0))
     return coef * rot, var, n_rev
-
-
-def analytic_band(x: np.ndarray, fs: float, band: tuple[float, float]) -> np.ndarray:
-    """Analytic signal of ``x`` band-passed to ``band`` (4th-order Butterworth, zero phase)."""
-    sos = _sig.butter(4, band, btype="bandpass", fs=fs, output="sos")
-    return _sig.hilbert(_sig.sosfiltfilt(sos, x - np.mean(x)))
 
 
 def envelope_power_spectrum(
