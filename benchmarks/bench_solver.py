@@ -158,7 +158,7 @@ def setup_times(cfg: object, repeats: int) -> dict:
     specs = parse_channels(system, Simulator.default_channels(system))
 
     def smap() -> None:
-        fast_map(lin, step_map(lin, basis, 1.0 / (32 * 1450.0), specs))
+        fast_map(lin, step_map(lin, basis, 1.0 / (32 * 1450.0), specs), specs)
 
     out["step_map"] = timed(smap, repeats)
     return out

@@ -616,7 +616,16 @@ class SpurGearPair:
         key = (float(temperature_c), int(n_points))
         if key in self._cache:
             return self._cache[key]
-        phase = np.arange(n_points) / n_points
+        table = self.mesh_stiffness_at(np.arange(n_points) / n_points, temperature_c)
+        self._cache[key] = table
+        return table
+
+    def mesh_stiffness_at(self, phase: np.ndarray, temperature_c: float) -> MeshStiffnessTable:
+        """K*(phase) and the contact kinematics at arbitrary mesh phases (Eqs 13-15), not cached.
+
+        Right-continuous at the tooth-pair changes (:meth:`mesh_event_phases`).
+        """
+        phase = np.atleast_1d(np.asarray(phase, dtype=float))
         pos = self.contact_positions(phase)
         mask = np.isfinite(pos)
         terms = self.pair_stiffness(np.where(mask, pos, self.pitch_point), temperature_c)
@@ -628,7 +637,7 @@ class SpurGearPair:
         k = 1.0 / (1.0 / k_tooth + 1.0 / (lam1 * kf1) + 1.0 / (lam2 * kf2))  # Eq 13
         share = kt / k_tooth[:, None]
         sign = np.where(mask, np.sign(np.where(mask, pos, 0.0) - self.pitch_point), 0.0)
-        table = MeshStiffnessTable(
+        return MeshStiffnessTable(
             temperature_c=float(temperature_c),
             phase=phase,
             stiffness=k,
@@ -641,8 +650,20 @@ class SpurGearPair:
             contact_ratio=self.contact_ratio,
             base_pitch=self.base_pitch,
         )
-        self._cache[key] = table
-        return table
+
+    def mesh_event_phases(self) -> np.ndarray:
+        """Mesh phases in [0, 1) where K* and the friction terms jump: a pair enters at the start of
+        active contact (phase 0), a pair leaves (frac(eps)), a pair passes the pitch point (sliding
+        reverses). Sorted, duplicates removed."""
+        pb = self.base_pitch
+        ph = [0.0, self.contact_ratio % 1.0, ((self.pitch_point - self.contact_start) / pb) % 1.0]
+        out: list[float] = []
+        for p in sorted(ph):
+            if p >= 1.0 - 1e-12:
+                p = 0.0
+            if not any(abs(p - q) < 1e-12 for q in out):
+                out.append(p)
+        return np.array(sorted(out))
 
     def iso_mesh_stiffness(self, temperature_c: float | None = None) -> dict[str, float]:
         """ISO 6336-1 single stiffness c' and mesh stiffness c_gamma_alpha (spur, no profile shift).

@@ -36,6 +36,7 @@ from gear_rotor_sim.solver.newmark import (
     StepContext,
     available_channels,
     check_steps_per_mesh,
+    default_locate_events,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
@@ -135,6 +136,10 @@ class Simulator:
     speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
         Ramp rates toward new targets (> 0; ``inf`` jumps).
     effects : sequence of Effect
+    locate_events : bool, optional
+        Split integration steps at the mesh-table jumps and contact changes inside them (second-order
+        accurate at those events, docs/solver.md); False takes them at the step instants (faster).
+        Default: on from ``LOCATE_EVENTS_FROM_STEPS`` steps per mesh period (``default_locate_events``).
     system_builder : callable, optional
         ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
     """
@@ -153,6 +158,7 @@ class Simulator:
         *,
         system_builder: Callable[[Any, float], AssembledSystem] | None = None,
         force_dense: bool = False,
+        locate_events: bool | None = None,
     ) -> None:
         _check_speed(speed_rpm)
         _check_temperature(temperature_c)
@@ -180,12 +186,18 @@ class Simulator:
         self.speed_ramp = float(speed_ramp_rpm_per_s)
         self.temperature_ramp = float(temperature_ramp_c_per_s)
         self._force_dense = force_dense
+        self.locate_events = (
+            default_locate_events(steps_per_mesh) if locate_events is None else bool(locate_events)
+        )
         self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         tq = self._tq(temperature_c)
         system = self._build(tq)
         names = list(channels) if channels is not None else self.default_channels(system)
         self.specs = parse_channels(system, names)
-        self._systems[tq] = (system, NewmarkStepper(system, self.specs, self.effects, force_dense))
+        self._systems[tq] = (
+            system,
+            NewmarkStepper(system, self.specs, self.effects, force_dense, locate_events=self.locate_events),
+        )
         self.channels = tuple(names)
         self.units = tuple(s.unit for s in self.specs)
         system, stepper = self._system(tq)
@@ -245,7 +257,12 @@ class Simulator:
         hit = self._systems.get(tq)
         if hit is None:
             system = self._build(tq)
-            hit = (system, NewmarkStepper(system, self.specs, self.effects, self._force_dense))
+            hit = (
+                system,
+                NewmarkStepper(
+                    system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events
+                ),
+            )
             self._systems[tq] = hit
             if len(self._systems) > 8:
                 self._systems.popitem(last=False)
@@ -342,7 +359,10 @@ class Simulator:
                 if take < y.shape[0]:
                     self._pending = y[take:]
             self._maybe_regrid()
-        data = np.concatenate(blocks) if blocks else np.zeros((0, len(self.channels) + 2))
+        if len(blocks) == 1:  # the usual case: no concatenation copy (the block below copies out)
+            data = blocks[0]
+        else:
+            data = np.concatenate(blocks) if blocks else np.zeros((0, len(self.channels) + 2))
         first = self._n_out
         self._n_out += data.shape[0]
         nch = len(self.channels)
@@ -423,8 +443,8 @@ class Simulator:
         temp = self._temp.value(t[1:-1])
         ch, _, _, _, states, _ = self._stepper.run(t, angle, speed, self._state)
         self._raw += n
-        raw = np.column_stack([ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp])
-        y = self._dec.push(raw)
+        # the channels, speed and temperature go side by side straight into the decimator's store
+        y = self._dec.push(ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp)
         if y0 is not None:
             y = np.concatenate([y0, y])
         loss = back = 0

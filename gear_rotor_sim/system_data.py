@@ -45,6 +45,10 @@ class MeshCoupling:
     # compiled kernels that look them up per step; None when only the callables are given.
     table_stiffness: np.ndarray | None = None  # (n,) N/m
     table_coefficients: np.ndarray | None = None  # (n, nb)
+    # Phases in [0, 1) where stiffness and coefficients jump (tooth-pair changes, pitch point) and the
+    # jumps: rows (phase, dk, dcoef_0..nb-1), right limit minus left limit; None if not known. Kernels
+    # that locate these events inside a step split the step there (docs/solver.md).
+    table_jumps: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

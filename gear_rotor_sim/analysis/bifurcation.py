@@ -121,6 +121,12 @@ class _ScaledStiffness:
         return self.scale * np.asarray(self.base(phase))
 
 
+def _scale_jumps(jumps: np.ndarray, scale: float) -> np.ndarray:
+    out = np.array(jumps, dtype=float)
+    out[:, 1] *= scale  # the stiffness jumps; phases and coefficient jumps are unchanged
+    return out
+
+
 def scale_mesh_stiffness(system: Any, scale: float) -> Any:
     """The assembled system with every mesh stiffness multiplied by ``scale`` at every phase.
 
@@ -149,6 +155,7 @@ def scale_mesh_stiffness(system: Any, scale: float) -> Any:
             mean_stiffness=float(m.mean_stiffness) * scale,
             damping=float(m.damping) * float(np.sqrt(scale)),
             table_stiffness=None if m.table_stiffness is None else np.asarray(m.table_stiffness) * scale,
+            table_jumps=None if m.table_jumps is None else _scale_jumps(m.table_jumps, scale),
         )
         for m in system.meshes
     )

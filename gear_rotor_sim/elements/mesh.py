@@ -226,6 +226,24 @@ def _annulus_polar_inertia(pair: SpurGearPair, pinion: bool, density: float) -> 
     return density * math.pi * pair.face_width * (d_out**4 - float(d_in) ** 4) / 32.0
 
 
+def table_jumps(pair: SpurGearPair, temperature_c: float, mu: float, eps: float = 1e-9) -> np.ndarray:
+    """Rows (phase, dk, dcoef...) of the jumps of K* and the force coefficients at the mesh events.
+
+    The limits are the values ``eps`` of a mesh period either side (K* is smooth on each side).
+    """
+    events = pair.mesh_event_phases()
+    left = pair.mesh_stiffness_at(np.mod(events - eps, 1.0), temperature_c)
+    right = pair.mesh_stiffness_at(events + eps, temperature_c)
+
+    def coefficients(t: MeshStiffnessTable) -> np.ndarray:
+        ones = np.ones((t.phase.size, 1))
+        return np.hstack([ones, friction_coefficients(t, mu)]) if mu > 0.0 else ones
+
+    dk = right.stiffness - left.stiffness
+    dc = coefficients(right) - coefficients(left)
+    return np.column_stack([events, dk, dc])
+
+
 def uniform_table(grid: np.ndarray, values: np.ndarray) -> np.ndarray | None:
     """``values`` if ``grid`` is the uniform periodic grid ``arange(n) / n``, else None."""
     g = np.asarray(grid, dtype=float)
@@ -363,6 +381,7 @@ def build_mesh_coupling(
         basis = np.zeros((ndof, 1))
         coef = np.ones((table.phase.size, 1))
     basis[:, 0] = -v_global
+    jumps = table_jumps(pair, float(temperature_c), mu)
     coef_interp = _periodic_interpolator(table.phase, coef)
     stiff_interp = _periodic_interpolator(table.phase, table.stiffness)
     if pinion_polar_inertia is None:
@@ -399,4 +418,5 @@ def build_mesh_coupling(
         contact_ratio=pair.contact_ratio,
         table_stiffness=uniform_table(table.phase, table.stiffness),
         table_coefficients=uniform_table(table.phase, coef),
+        table_jumps=jumps,
     )

@@ -1,9 +1,11 @@
 """The simulator node: the digital twin's streams as ROS 2 topics (``ros2 run gear_rotor_sim simulator``).
 
 Threading (why setpoints are never starved): a dedicated *stepping thread* advances the simulator
-chunk by chunk, paces the chunks against the wall clock (``real_time_factor``), publishes them and
-feeds the recorder. The main thread spins a single-threaded executor that serves everything else:
-setpoint subscriptions, parameter services and the diagnostics timer. Setpoint callbacks only
+chunk by chunk and paces the chunks against the wall clock (``real_time_factor``); an *output
+thread* adds sensor noise, publishes the chunks and feeds the recorder, in order, while the next
+chunk is integrated (a queue of two blocks between them: nothing is dropped; if publishing falls
+behind, the stepping thread waits). The main thread spins a single-threaded executor that serves
+everything else: setpoint subscriptions, parameter services and the diagnostics timer. Setpoint callbacks only
 validate and store the latest target under a lock; the stepping thread hands it to the simulator
 between two chunks. A callback waits at most for the Python interpreter lock, i.e. the length of
 one compiled kernel call when the kernels hold it; with ``nogil`` kernels it runs concurrently.
@@ -24,6 +26,7 @@ import array
 import collections
 import difflib
 import math
+import queue
 import signal
 import sys
 import threading
@@ -188,6 +191,10 @@ def fill_chunk(msg: VibrationChunk, fields: dict) -> VibrationChunk:
     data.frombytes(fields["data"].tobytes())
     msg.data = data
     return msg
+
+
+#: Blocks the stepping thread may run ahead of the output thread (publishing and recording).
+_OUTPUT_QUEUE = 2
 
 
 class SimulatorNode(Node):
@@ -481,14 +488,69 @@ class SimulatorNode(Node):
             self.get_logger().error(f"simulation stopped: {type(exc).__name__}: {exc}")
 
     def _loop(self) -> None:
+        """Simulate chunk after chunk at the requested pace; hand each block to the output thread.
+
+        The output thread (noise, messages, publishing, recording) works on chunk i while this
+        thread integrates chunk i + 1 (the compiled kernel and the FIR release the GIL), through a
+        queue of ``_OUTPUT_QUEUE`` blocks: when publishing cannot keep up the queue fills and this
+        thread waits, so nothing is dropped and the achieved real-time factor shows it.
+        """
+        out_q: queue.Queue = queue.Queue(maxsize=_OUTPUT_QUEUE)
+        writer = threading.Thread(
+            target=self._output_loop, args=(out_q,), name="gear_rotor_output", daemon=True
+        )
+        writer.start()
+        try:
+            self._simulate(out_q)
+        finally:
+            out_q.put(None)  # after every block: the output thread drains the queue, then ends
+            writer.join()
+
+    def _output_loop(self, out_q: queue.Queue) -> None:
         sequence = {s.name: 0 for s in self._streams}
+        clock = Clock()
+        while True:
+            item = out_q.get()
+            if item is None:
+                return
+            block, t_end = item
+            try:
+                self._publish_block(block, t_end, sequence, clock)
+            except Exception as exc:  # reported; the stream goes on with the next block
+                self.get_logger().error(f"publishing failed: {type(exc).__name__}: {exc}")
+
+    def _publish_block(self, block: SampleBlock, t_end: float, sequence: dict, clock: Clock) -> None:
+        if self._rebuild_noise:
+            self._rebuild_noise = False
+            self._build_noise()
+        for spec in self._streams:
+            sub = block.select(spec.channels)
+            noisy = self._noise[spec.name].apply(sub.data)
+            if noisy is not sub.data:
+                sub = SampleBlock(
+                    sub.t0,
+                    sub.sample_rate_hz,
+                    sub.channels,
+                    sub.units,
+                    noisy,
+                    sub.first_index,
+                    sub.speed_rpm,
+                    sub.temperature_c,
+                )
+            seq = sequence[spec.name]
+            msg = fill_chunk(VibrationChunk(), chunk_fields(sub, spec, seq))
+            self._stream_pubs[spec.name].publish(msg)
+            if self._recorder is not None:
+                self._write_recording(sub, spec, seq)
+            sequence[spec.name] = seq + 1
+        if self._values["publish_clock"]:
+            clock.clock.sec, clock.clock.nanosec = time_to_stamp(t_end)
+            self._clock_pub.publish(clock)
+
+    def _simulate(self, out_q: queue.Queue) -> None:
         expected_index: int | None = None
         anchor_wall = anchor_sim = 0.0
-        clock = Clock()
         while not self._stop.is_set():
-            if self._rebuild_noise:
-                self._rebuild_noise = False
-                self._build_noise()
             self._apply_pending()
             rtf = float(self._values["real_time_factor"])
             chunk = float(self._values["chunk_period_s"])
@@ -511,29 +573,7 @@ class SimulatorNode(Node):
                 self._stop.wait(due - now)
             elif late:
                 anchor_wall, anchor_sim = now, t_end  # cannot keep up: sim time slows down
-            for spec in self._streams:
-                sub = block.select(spec.channels)
-                noisy = self._noise[spec.name].apply(sub.data)
-                if noisy is not sub.data:
-                    sub = SampleBlock(
-                        sub.t0,
-                        sub.sample_rate_hz,
-                        sub.channels,
-                        sub.units,
-                        noisy,
-                        sub.first_index,
-                        sub.speed_rpm,
-                        sub.temperature_c,
-                    )
-                seq = sequence[spec.name]
-                msg = fill_chunk(VibrationChunk(), chunk_fields(sub, spec, seq))
-                self._stream_pubs[spec.name].publish(msg)
-                if self._recorder is not None:
-                    self._write_recording(sub, spec, seq)
-                sequence[spec.name] = seq + 1
-            if self._values["publish_clock"]:
-                clock.clock.sec, clock.clock.nanosec = time_to_stamp(t_end)
-                self._clock_pub.publish(clock)
+            out_q.put((block, t_end))  # waits while the output thread is _OUTPUT_QUEUE blocks behind
             self._record_progress(block, t_end, late)
 
     def _record_progress(self, block: SampleBlock, t_end: float, late: bool) -> None:

@@ -5,9 +5,15 @@ passband edge ``0.4 * f_out``, stopband from ``0.5 * f_out`` (the output Nyquist
 attenuation (``scipy.signal.kaiserord`` / ``firwin``). Its length ``N = q k + 1`` (``q`` even) makes
 the group delay ``D = (N - 1) / 2`` a multiple of ``k``, so every output sample is centred exactly on a
 raw sample: output ``i`` at raw index ``p = i k`` is ``sum_m h[m] x[p + D - m]`` (zero phase; the raw
-integration runs ``D`` steps ahead of the last emitted output). Only kept outputs are computed
-(a compiled polyphase loop, :func:`fir_decimate`). When ``k`` changes (speed change) the raw
-history is brought onto the new raw grid by cubic-spline interpolation (see docs/solver.md).
+integration runs ``D`` steps ahead of the last emitted output). Only kept outputs are computed.
+
+Evaluation (:func:`fir_decimate_polyphase`): the raw history is held in polyphase layout
+``st[r, b, c] = x[b k + r, c]`` (phase ``r``, block ``b``, channel ``c``), written once when the raw
+samples arrive. For a fixed tap ``m = j k + r`` the contributions to consecutive outputs are then one
+contiguous run ``st[r, b0 + j : b0 + j + n_out, :]``, so the filter is a sequence of long
+stride-1 multiply-adds over (output, channel), evaluated in cache-sized tiles of the output.
+When ``k`` changes (speed change) the raw history is brought onto the new raw grid by cubic-spline
+interpolation (see docs/solver.md).
 """
 
 from __future__ import annotations
@@ -21,6 +27,12 @@ STOPBAND_DB = 80.0
 PASSBAND_FRACTION = 0.4  # of the output rate
 STOPBAND_FRACTION = 0.5  # of the output rate (the output Nyquist)
 
+_NO_EXTRA = np.zeros((0, 0))
+
+#: Output elements (samples x channels) per tile of :func:`fir_decimate_polyphase` (16 KiB of doubles;
+#: with the raw rows a tile reads it stays in the first- and second-level caches).
+TILE_ELEMENTS = 2048
+
 
 def design_taps(k: int) -> np.ndarray:
     """Low-pass taps for decimation by ``k`` (normalised to the raw rate); ``[1.0]`` for ``k = 1``."""
@@ -33,34 +45,114 @@ def design_taps(k: int) -> np.ndarray:
     numtaps = q * k + 1
     cutoff = 0.5 * (PASSBAND_FRACTION + STOPBAND_FRACTION) / nyq
     taps = firwin(numtaps, cutoff, window=("kaiser", beta))
-    return 0.5 * (taps + taps[::-1])  # exactly symmetric (fir_decimate relies on it)
+    return 0.5 * (taps + taps[::-1])  # exactly symmetric (linear phase)
 
 
 @njit(cache=True, fastmath=True, nogil=True)
-def fir_decimate(buf: np.ndarray, h: np.ndarray, start: int, k: int, n_out: int) -> np.ndarray:
-    """``y[i, c] = sum_m h[m] buf[start + i k - m, c]``: only the kept outputs are computed.
+def fir_decimate_polyphase(st: np.ndarray, h: np.ndarray, b_start: int, n_out: int) -> np.ndarray:
+    """Decimating FIR on a polyphase store: ``y[i, c] = sum_m h[m] x[(b_start + i) k + Q k - m, c]``.
 
-    ``h`` must be symmetric (linear phase, as :func:`design_taps` gives), so the sum is evaluated as a
-    forward dot product over a contiguous window of one channel, which vectorises.
+    ``st[r, b, c] = x[b k + r, c]`` (``k = st.shape[0]``); ``h`` has ``Q k + 1`` taps. Output ``i``
+    reads the raw samples ``(b_start + i) k .. (b_start + i + Q) k``, i.e. blocks
+    ``b_start + i .. b_start + i + Q`` (the last one at phase 0 only), which must lie in the store.
     """
-    nch = buf.shape[1]
+    k = st.shape[0]
+    nb = st.shape[1]
+    nch = st.shape[2]
     ntap = h.shape[0]
-    xt = np.ascontiguousarray(buf.T)
+    nq = (ntap - 1) // k  # Q
+    if ntap != nq * k + 1 or b_start < 0 or n_out < 0 or b_start + n_out + nq > nb:
+        raise ValueError("fir_decimate_polyphase: taps must number Q k + 1 and the blocks read lie in st")
     y = np.zeros((n_out, nch))
-    for c in range(nch):
-        x = xt[c]
-        for i in range(n_out):
-            lo = start + i * k - (ntap - 1)
-            seg = x[lo : lo + ntap]
-            acc = 0.0
-            for m in range(ntap):
-                acc += h[m] * seg[m]
-            y[i, c] = acc
+    n = n_out * nch
+    if n == 0:
+        return y
+    yf = y.reshape(n)
+    # tap of raw x[lo + j k + r] (lo = (b_start + i) k) is h[Q k - j k - r]
+    hr = np.empty(ntap)
+    for m in range(ntap):
+        hr[m] = h[ntap - 1 - m]
+    for t0 in range(0, n, TILE_ELEMENTS):
+        tn = min(TILE_ELEMENTS, n - t0)
+        yt = yf[t0 : t0 + tn]
+        for r in range(k):
+            xr = st[r].reshape(nb * nch)[b_start * nch + t0 :]
+            jmax = nq + 1 if r == 0 else nq
+            j = 0
+            while j + 3 < jmax:
+                h0 = hr[j * k + r]
+                h1 = hr[(j + 1) * k + r]
+                h2 = hr[(j + 2) * k + r]
+                h3 = hr[(j + 3) * k + r]
+                a0 = xr[j * nch : j * nch + tn]
+                a1 = xr[(j + 1) * nch : (j + 1) * nch + tn]
+                a2 = xr[(j + 2) * nch : (j + 2) * nch + tn]
+                a3 = xr[(j + 3) * nch : (j + 3) * nch + tn]
+                for t in range(tn):
+                    yt[t] += h0 * a0[t] + h1 * a1[t] + h2 * a2[t] + h3 * a3[t]
+                j += 4
+            while j < jmax:
+                h0 = hr[j * k + r]
+                a0 = xr[j * nch : j * nch + tn]
+                for t in range(tn):
+                    yt[t] += h0 * a0[t]
+                j += 1
     return y
+
+
+@njit(cache=True, nogil=True)
+def _scatter(st: np.ndarray, first: int, main: np.ndarray, extra: np.ndarray) -> None:
+    """Write raw rows into the polyphase store in one pass: for raw index ``b k + r = first + j``,
+    ``st[r, b, :m] = main[j]`` and ``st[r, b, m + e] = extra[e, j]`` (``m = main.shape[1]``)."""
+    k = st.shape[0]
+    n = main.shape[0]
+    m = main.shape[1]
+    ne = extra.shape[0]
+    b = first // k
+    r = first - b * k
+    for j in range(n):
+        dst = st[r, b]
+        src = main[j]
+        for c in range(m):
+            dst[c] = src[c]
+        for e in range(ne):
+            dst[m + e] = extra[e, j]
+        r += 1
+        if r == k:
+            r = 0
+            b += 1
+
+
+def fir_decimate(buf: np.ndarray, h: np.ndarray, start: int, k: int, n_out: int) -> np.ndarray:
+    """``y[i, c] = sum_m h[m] buf[start + i k - m, c]`` (rows outside ``buf`` count as 0).
+
+    One-shot form of :func:`fir_decimate_polyphase` for a row-major (raw, channel) array: the rows
+    used are copied once into polyphase layout. Any ``h`` (it need not be symmetric).
+    """
+    buf = np.asarray(buf, dtype=float)
+    if buf.ndim != 2:
+        raise ValueError("fir_decimate: buf must be 2-D (raw samples x channels)")
+    h = np.asarray(h, dtype=float)
+    k = int(k)
+    n_out = int(n_out)
+    nq = -(-(h.size - 1) // k)
+    hp = np.zeros(nq * k + 1)
+    hp[: h.size] = h  # zero taps on the oldest side: length Q k + 1
+    lo = int(start) - nq * k  # raw row of the oldest sample output 0 reads
+    st = np.zeros((k, n_out + nq, buf.shape[1]))
+    a = max(lo, 0)
+    e = min(lo + (n_out + nq) * k, buf.shape[0])
+    if e > a:
+        _scatter(st, a - lo, buf[a:e], _NO_EXTRA)
+    return fir_decimate_polyphase(st, hp, 0, n_out)
 
 
 class StreamDecimator:
     """Decimates a multichannel raw stream by ``k`` with carried filter history.
+
+    The kept raw samples (indices ``b0 .. last_raw``, relative to the current raw segment) live in a
+    growing polyphase store (``_st[r, b, c]`` = raw ``(_blk0 + b) k + r``); :meth:`push` writes new
+    samples into it once and moves the kept history to the front only when the store is full.
 
     Parameters
     ----------
@@ -71,38 +163,104 @@ class StreamDecimator:
     """
 
     def __init__(self, k: int, initial: np.ndarray) -> None:
-        self.k = int(k)
-        self.h = design_taps(self.k)
-        self.delay = (self.h.size - 1) // 2
-        nch = initial.size
-        # buffer of raw samples; buf[0] has raw index b0 (relative to the current raw segment)
-        self.buf = np.tile(np.asarray(initial, float), (self.delay + 1, 1)).reshape(self.delay + 1, nch)
-        self.b0 = -self.delay
-        self.next_p = 0  # raw index of the next output centre
+        init = np.asarray(initial, float).reshape(-1)
+        self.ncol = init.size
+        h = design_taps(int(k))
+        delay = (h.size - 1) // 2
+        self._reset(int(k), h, -delay, np.tile(init, (delay + 1, 1)), 0)
+
+    # -------------------------------------------------------------------------------- storage
+    def _reset(self, k: int, h: np.ndarray, b0: int, raw: np.ndarray, next_p: int) -> None:
+        """(Re)build the store for factor ``k`` (taps ``h``) holding ``raw`` (rows = raw indices b0 ..)."""
+        self.k = k
+        self.h = h
+        self.delay = (h.size - 1) // 2
+        self.b0 = b0
+        self._last = b0 + raw.shape[0] - 1
+        self.next_p = next_p
+        self._blk0 = b0 // k
+        need = self._last // k - self._blk0 + 1
+        self._st = np.zeros((k, 2 * need + 8, self.ncol))
+        _scatter(self._st, b0 - self._blk0 * k, np.ascontiguousarray(raw, dtype=float), _NO_EXTRA)
+
+    def _reserve(self, n: int) -> None:
+        """Make room for raw samples up to ``last_raw + n``: compact (and grow) when needed."""
+        k = self.k
+        cap = self._st.shape[1]
+        if (self._last + n) // k - self._blk0 < cap:
+            return
+        first = self.b0 // k
+        s = first - self._blk0
+        used = self._last // k - first + 1
+        need = (self._last + n) // k - first + 1
+        if need <= cap:  # move the kept history to the front
+            self._st[:, :used] = self._st[:, s : s + used].copy()
+        else:  # grow to the push plus twice the history: later moves of the history stay amortised
+            st = np.zeros((k, need + used + 8, self.ncol))
+            st[:, :used] = self._st[:, s : s + used]
+            self._st = st
+        self._blk0 = first
 
     @property
     def last_raw(self) -> int:
-        return self.b0 + self.buf.shape[0] - 1
+        return self._last
 
-    def push(self, raw: np.ndarray) -> np.ndarray:
-        """Append raw samples (raw indices last_raw+1 ...) and return the outputs now complete."""
-        self.buf = np.ascontiguousarray(np.concatenate([self.buf, raw], axis=0))
-        last_ok = self.last_raw - self.delay
+    @property
+    def buf(self) -> np.ndarray:
+        """Copy of the kept raw samples, raw indices ``b0 .. last_raw`` (rows), channels (columns)."""
+        k = self.k
+        first = self.b0 // k
+        nblk = self._last // k - first + 1
+        s = first - self._blk0
+        rows = self._st[:, s : s + nblk].transpose(1, 0, 2).reshape(nblk * k, self.ncol)
+        off = self.b0 - first * k
+        return rows[off : off + self._last - self.b0 + 1].copy()
+
+    # ------------------------------------------------------------------------------- streaming
+    def push(self, *parts: np.ndarray | float) -> np.ndarray:
+        """Append raw samples (raw indices last_raw+1 ...) and return the outputs now complete.
+
+        ``parts`` are the columns side by side, ``ncol`` in all: arrays ``(n, m)`` or ``(n,)`` (the same
+        ``n``) or, after the first, floats (a constant column). They are written into the store in one
+        pass (the first part row-wise, the later ones as stacked columns), so the caller need not
+        assemble an ``(n, ncol)`` array.
+        """
+        if not parts or np.ndim(parts[0]) not in (1, 2):
+            raise ValueError("push: the first part must be an (n, m) or (n,) array")
+        main = np.asarray(parts[0], dtype=float)
+        n = main.shape[0]
+        main = main.reshape(n, 1) if main.ndim == 1 else main
+        rows: list[np.ndarray] = []
+        for p in parts[1:]:
+            a = np.asarray(p, dtype=float)
+            if a.ndim == 0:
+                rows.append(np.full((1, n), float(a)))
+            elif a.ndim <= 2 and a.shape[0] == n:
+                rows.append(a.reshape(1, n) if a.ndim == 1 else a.T)
+            else:
+                raise ValueError(f"push: part of shape {a.shape} does not match {n} raw samples")
+        extra = np.concatenate(rows) if rows else _NO_EXTRA
+        if main.shape[1] + extra.shape[0] != self.ncol:
+            raise ValueError(f"push: {main.shape[1] + extra.shape[0]} columns given, {self.ncol} expected")
+        if n:
+            self._reserve(n)
+            _scatter(self._st, self._last + 1 - self._blk0 * self.k, main, extra)
+            self._last += n
+        last_ok = self._last - self.delay
         if last_ok < self.next_p:
-            return np.zeros((0, self.buf.shape[1]))
+            return np.zeros((0, self.ncol))
         n_out = (last_ok - self.next_p) // self.k + 1
         p_last = self.next_p + (n_out - 1) * self.k
+        # zero phase: output at raw index p uses raw p - delay .. p + delay (blocks from (p - delay) / k)
+        b_start = (self.next_p - self.delay) // self.k - self._blk0
         if self.k == 1:
-            s0 = self.next_p - self.b0
-            y = self.buf[s0 : s0 + n_out].copy()
+            y = self._st[0, b_start : b_start + n_out].copy()
         else:
-            # zero phase: output at raw index p uses raw p - delay .. p + delay (h is symmetric)
-            y = fir_decimate(self.buf, self.h, self.next_p + self.delay - self.b0, self.k, n_out)
+            y = fir_decimate_polyphase(self._st, self.h, b_start, n_out)
         self.next_p = p_last + self.k
-        keep_from = self.next_p - 2 * self.delay - self.k - self.b0  # margin for a later regrid
-        if keep_from > 0:
-            self.buf = self.buf[keep_from:]
-            self.b0 += keep_from
+        keep_from = self.next_p - 2 * self.delay - self.k  # margin for a later regrid
+        if keep_from > self.b0:
+            self.b0 = keep_from
         return y
 
     def regrid(self, new_k: int, split_raw: int) -> None:
@@ -113,23 +271,24 @@ class StreamDecimator:
         """
         if split_raw != self.last_raw or split_raw % self.k:
             raise ValueError("regrid: the split must be the last raw sample and on the output grid")
-        old_t = (self.b0 + np.arange(self.buf.shape[0])) / self.k  # in output periods, relative
+        buf = self.buf
+        old_t = (self.b0 + np.arange(buf.shape[0])) / self.k  # in output periods, relative
         new_h = design_taps(new_k)
         new_delay = (new_h.size - 1) // 2
         pending_first = (self.next_p - split_raw) / self.k  # <= 0, output periods
         n_hist = int(np.ceil(-pending_first * new_k)) + new_delay + new_k
         new_idx = np.arange(-n_hist, 1)
         new_t = split_raw / self.k + new_idx / new_k
-        spline = CubicSpline(old_t, self.buf, axis=0)
-        self.buf = spline(np.maximum(new_t, old_t[0]))
-        self.buf[-1] = spline(old_t[-1])
-        self.b0 = -n_hist
-        self.next_p = round(pending_first * new_k)
-        self.k = int(new_k)
-        self.h = new_h
-        self.delay = new_delay
+        spline = CubicSpline(old_t, buf, axis=0)
+        new_buf = spline(np.maximum(new_t, old_t[0]))
+        new_buf[-1] = spline(old_t[-1])
+        self._reset(int(new_k), new_h, -n_hist, new_buf, round(pending_first * new_k))
 
     def rebase(self, split_raw: int) -> None:
         """Restart raw indices at 0 at ``split_raw`` (a multiple of k) without changing the grid."""
+        if split_raw % self.k:
+            raise ValueError("rebase: the split must be on the output grid (a multiple of k)")
         self.b0 -= split_raw
+        self._last -= split_raw
         self.next_p -= split_raw
+        self._blk0 -= split_raw // self.k

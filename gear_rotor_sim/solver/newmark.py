@@ -495,20 +495,86 @@ class FastMap:
     crv_i: np.ndarray
     pq: np.ndarray
     pq_static: np.ndarray
-    out_lo: np.ndarray
-    out_hi: np.ndarray
-    dfeed: np.ndarray
+    vd_r: np.ndarray  # (V Phi) rows of delta and delta' (sub-steps)
+    vd_i: np.ndarray
+    vv_r: np.ndarray
+    vv_i: np.ndarray
+    mur: np.ndarray  # h lambda per mode (sub-steps)
+    mui: np.ndarray
+    pmr: np.ndarray  # (10, nmode): (V Phi) * SW_q for delta, delta' per mesh column, then static
+    pmi: np.ndarray
+    cstack: np.ndarray  # (2 nmode + na, no): outputs = [z_r, z_i, beta] @ cstack + dfeed_static
     dfeed_static: np.ndarray
-    tab_k: np.ndarray
+    tab_kf: np.ndarray  # the full tables and a flag per table interval that holds a jump
+    tab_cf: np.ndarray
+    jflag: np.ndarray
+    tab_k: np.ndarray  # continuous parts of the tables (jumps removed)
     tab_c: np.ndarray
+    jump_p: np.ndarray  # phases in [0, 1) where the tables jump, and the jumps
+    jump_k: np.ndarray
+    jump_c: np.ndarray
     mesh_par: np.ndarray
 
 
-def fast_map(lin: LinearModel, mp: StepMap) -> FastMap | None:
+OUTPUT_BLOCK_STEPS = 64  # steps per output matrix product in the fast kernel (fits L1/L2)
+
+
+def split_table_jumps(
+    tab_k: np.ndarray, tab_c: np.ndarray, jumps: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Continuous tables plus periodic steps: ``k(f) = kc(f) + sum_j dk_j ([f >= p_j] - f)``.
+
+    ``jumps`` rows are (phase, dk, dcoef...) as :attr:`MeshCoupling.table_jumps` (right minus left
+    limit). Each ``[f >= p_j] - f`` is periodic on [0, 1) and jumps by 1 at ``p_j`` only (the ramp
+    carries the net change, as the jumps of a periodic table need not sum to zero), so ``kc`` is
+    continuous and periodic and its linear interpolation on the table grid is second-order accurate.
+    Returns ``(kc, cc, jump_p, jump_k, jump_c)`` with the phases sorted.
+    """
+    nt = tab_k.size
+    nb = tab_c.shape[1]
+    if jumps is None or len(jumps) == 0:
+        z = np.zeros(0)
+        return tab_k.copy(), tab_c.copy(), z, z, np.zeros((0, nb))
+    jumps = np.asarray(jumps, float)
+    jumps = jumps[np.argsort(jumps[:, 0])]
+    p, jk, jc = jumps[:, 0], jumps[:, 1], np.ascontiguousarray(jumps[:, 2 : 2 + nb])
+    grid = np.arange(nt) / nt
+    saw = (grid[:, None] >= p[None, :]).astype(float) - grid[:, None]  # (nt, nj)
+    return tab_k - saw @ jk, tab_c - saw @ jc, p.copy(), jk.copy(), jc
+
+
+def _jump_intervals(nt: int, jump_p: np.ndarray) -> np.ndarray:
+    """int8 flag per interval [i/nt, (i+1)/nt) of the table grid: 1 if a jump phase lies in it."""
+    flag = np.zeros(nt, dtype=np.int8)
+    for p in jump_p:
+        i = int(np.floor(p * nt)) % nt
+        flag[i] = 1
+        flag[(i - 1) % nt] = 1  # guard the interval before (phase round-off at a grid point)
+    return flag
+
+
+def _static_feed(mp: StepMap, specs: Sequence[ChannelSpec] | None) -> np.ndarray:
+    """Output offset of the static-load column (amplitude 1), per output column of the fast map."""
+    rows = mp.dfeed[:, 0] if mp.dfeed.size else np.zeros(mp.outr.shape[0])
+    if specs is None or rows.size == 0:
+        return rows.copy()
+    out = np.zeros(len(specs))
+    o = 0
+    for i, sp in enumerate(specs):
+        if sp.kind == "row":
+            out[i] = rows[o]
+            o += 1
+    return out
+
+
+def fast_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None = None) -> FastMap | None:
     """The single-mesh fast-path arrays of a modal step map, or None if the path does not apply.
 
     Applies when the system has exactly one mesh with uniform tables whose first force-basis column
-    is ``-V`` (Eq 22 / Eq 29 with the friction part in the other columns).
+    is ``-V`` (Eq 22 / Eq 29 with the friction part in the other columns). With ``specs`` the output
+    matrix gives every channel in their order (``dte`` = V x and ``mesh_force`` = kbar delta +
+    cbar delta' - u are linear in the modal state and the column amplitudes too); without, only the
+    state-row channels.
     """
     if mp.dense or lin.nm != 1:
         return None
@@ -524,12 +590,49 @@ def fast_map(lin: LinearModel, mp: StepMap) -> FastMap | None:
         return None
     cols = np.array([lin.col_comp[0], *cb[1:nb], *range(lin.col_eff0, lin.m)], dtype=np.int64)
     nf = mp.basis.n_forced if mp.basis.n_forced >= 0 else mp.basis.lam.size
-    out_lo = np.zeros(mp.outr.shape[0], dtype=np.int64)
-    out_hi = np.zeros(mp.outr.shape[0], dtype=np.int64)
-    for o in range(mp.outr.shape[0]):
-        nz = np.flatnonzero((mp.outr[o] != 0.0) | (mp.outi[o] != 0.0))
-        if nz.size:  # rounded to the 8-wide vector blocks of the padded arrays
-            out_lo[o], out_hi[o] = (nz[0] // 8) * 8, min(mp.nmode, -(-(nz[-1] + 1) // 8) * 8)
+    npad = mp.nmode
+    nk = mp.basis.lam.size
+
+    def pad(x: np.ndarray) -> np.ndarray:
+        y = np.zeros(npad, dtype=complex)
+        y[:nk] = x
+        return y
+
+    n = lin.nfree
+    vd = pad(lin.V[0] @ mp.basis.phi[:n])
+    vv = pad(lin.V[0] @ mp.basis.phi[n:])
+    mu = pad(mp.dt * mp.basis.lam)
+    nrow = mp.outr.shape[0]
+    rows = np.zeros((2 * npad + cols.size, nrow))
+    if nrow:
+        rows[:npad] = mp.outr.T
+        rows[npad : 2 * npad] = -mp.outi.T
+        rows[2 * npad :] = mp.dfeed[:, cols].T
+    if specs is None or nrow == 0:  # without state rows, DTE and mesh force come from the kernel
+        cstack = rows
+    else:
+        cstack = np.zeros((rows.shape[0], len(specs)))
+        o = 0
+        for i, sp in enumerate(specs):
+            if sp.kind == "row":
+                cstack[:, i] = rows[:, o]
+                o += 1
+            else:
+                cstack[:npad, i] = vd.real
+                cstack[npad : 2 * npad, i] = -vd.imag
+                if sp.kind == "force":  # F = kbar delta + c_m delta' - u
+                    cstack[:npad, i] = lin.kbar[0] * vd.real + lin.cmesh[0] * vv.real
+                    cstack[npad : 2 * npad, i] = -(lin.kbar[0] * vd.imag + lin.cmesh[0] * vv.imag)
+                    cstack[2 * npad, i] = -1.0
+    sw_act = mp.swr[cols] + 1j * mp.swi[cols]
+    pm = np.zeros((10, npad), dtype=complex)
+    for q in range(min(nb, 4)):
+        pm[2 * q] = vd * sw_act[q]
+        pm[2 * q + 1] = vv * sw_act[q]
+    c0 = 2.0 * (mp.swr[0] + 1j * mp.swi[0])
+    pm[8] = vd * c0
+    pm[9] = vv * c0
+    kc, cc, jp, jk, jc = split_table_jumps(np.asarray(mc.table_stiffness, float), tab_c, mc.table_jumps)
     return FastMap(
         cols,
         aligned(2.0 * mp.swr[0]),
@@ -543,14 +646,28 @@ def fast_map(lin: LinearModel, mp: StepMap) -> FastMap | None:
         aligned(mp.cri[1]),
         aligned(mp.pq[:, cols]),
         aligned(2.0 * mp.pq[:, 0]),
-        out_lo,
-        out_hi,
-        aligned(mp.dfeed[:, cols] if mp.dfeed.size else np.zeros((0, cols.size))),
-        aligned(mp.dfeed[:, 0].copy() if mp.dfeed.size else np.zeros(0)),
+        aligned(vd.real),
+        aligned(vd.imag),
+        aligned(vv.real),
+        aligned(vv.imag),
+        aligned(mu.real),
+        aligned(mu.imag),
+        aligned(pm.real),
+        aligned(pm.imag),
+        aligned(cstack),
+        aligned(_static_feed(mp, specs)),
         aligned(np.asarray(mc.table_stiffness, float)),
         aligned(tab_c),
-        # (kbar, cbar, c_m, b*, e0, phi): the damping in the linear part is the mesh damping itself
-        np.array([lin.kbar[0], lin.cmesh[0], lin.cmesh[0], lin.bstar[0], mc.te_amplitude, mc.te_phase]),
+        _jump_intervals(mc.table_stiffness.size, jp),
+        aligned(kc),
+        aligned(cc),
+        jp,
+        jk,
+        jc,
+        # (kbar, cbar, c_m, b*, e0, phi, dt): the damping in the linear part is the mesh damping itself
+        np.array(
+            [lin.kbar[0], lin.cmesh[0], lin.cmesh[0], lin.bstar[0], mc.te_amplitude, mc.te_phase, mp.dt]
+        ),
     )
 
 
@@ -838,6 +955,9 @@ class NewmarkStepper:
         Eigenbases kept per system (LRU over quantised speeds).
     disable_fast : bool
         Always use the general kernel (tests of the fast single-mesh path against it).
+    locate_events : bool
+        Fast path: split steps at the mesh-table jumps and contact changes inside them (docs/solver.md);
+        False takes every event at the step instants, as the general kernel does.
     """
 
     def __init__(
@@ -848,6 +968,7 @@ class NewmarkStepper:
         force_dense: bool = False,
         cache_size: int = 16,
         disable_fast: bool = False,
+        locate_events: bool = False,
     ) -> None:
         self.system = system
         self.specs = list(specs)
@@ -865,6 +986,9 @@ class NewmarkStepper:
         self.n_mesh_fail = 0
         self.fast: FastMap | None = None
         self.disable_fast = disable_fast
+        self.locate_events = bool(locate_events)
+        self.n_substeps = 0
+        self._hbuf = np.zeros((0, 0))
         self.beta_act = np.zeros(0)
 
     # --- basis handling
@@ -883,7 +1007,7 @@ class NewmarkStepper:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
         if self.map is None or self.map.basis.omega != omega or self.map.dt != dt:
             self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
-            self.fast = None if self.disable_fast else fast_map(self.lin, self.map)
+            self.fast = None if self.disable_fast else fast_map(self.lin, self.map, self.specs)
         self.load_state(state)
 
     def load_state(self, st: SolverState) -> None:
@@ -1043,19 +1167,24 @@ class NewmarkStepper:
         system = self.system
         mc = system.meshes[0]
         n = t.size - 2
-        inner = slice(1, n + 1)
+        known = slice(0, n + 1)  # the carried step and the new steps
         ratio = abs(float(system.shaft_speed_ratios[mc.pinion_shaft]))
-        cyc = (mc.pinion_teeth * ratio / (2.0 * np.pi)) * angle[inner]
+        cyc = (mc.pinion_teeth * ratio / (2.0 * np.pi)) * angle[known]
         phase = cyc - np.floor(cyc)
-        prate = (mc.pinion_teeth * ratio / (2.0 * np.pi)) * speed[inner]
+        prate = (mc.pinion_teeth * ratio / (2.0 * np.pi)) * speed[known]
         empty = np.zeros(0)
         kfac = te = ted = empty
-        ampl = np.zeros((n, lin.ne))
+        ampl_k = np.zeros((n + 1, lin.ne))
         if self.effects:
-            kt_e, et_e, edt_e, _, ampl = _effect_arrays(lin, t, angle, speed, self.effects)
+            # effect inputs on the carried step too (sub-steps interpolate between grid steps)
+            t_e = np.concatenate([[2 * t[0] - t[1]], t])
+            a_e = np.concatenate([[2 * angle[0] - angle[1]], angle])
+            s_e = np.concatenate([[speed[0]], speed])
+            kt_e, et_e, edt_e, _, ampl_k = _effect_arrays(lin, t_e, a_e, s_e, self.effects)
             kfac, te, ted = kt_e[:, 0], et_e[:, 0], edt_e[:, 0]
-        no = len(self.row_index)
-        out = np.empty((n, no))
+        ampl = ampl_k[1:]
+        all_in_gemm = fm_.cstack.shape[1] == len(self.specs)
+        out = np.empty((n, fm_.cstack.shape[1]))  # every channel in order, or none (see fast_map)
         dte = np.empty((n, 1))
         dted = np.empty((n, 1))
         fm = np.empty((n, 1))
@@ -1064,15 +1193,21 @@ class NewmarkStepper:
         et = np.empty(n)
         edt = np.empty(n)
         coef = np.empty((n, lin.nb))
-        status, step, nfail = kernels.run_chunk_one_mesh(
+        if self._hbuf.shape[1] != fm_.cstack.shape[0]:
+            self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, fm_.cstack.shape[0]))
+        mcarry = np.array([st.delta[0], st.delta_dot[0], st.force[0]])
+        status, step, nfail, nsub = kernels.run_chunk_one_mesh(
             self.zr, self.zi, self.map.rr, self.map.ri, fm_.c0r, fm_.c0i, fm_.swr, fm_.swi, fm_.n_forced,
             fm_.crd_r, fm_.crd_i, fm_.crv_r, fm_.crv_i, fm_.pq, fm_.pq_static,
-            self.map.outr, self.map.outi, fm_.out_lo, fm_.out_hi, fm_.dfeed, fm_.dfeed_static,
-            fm_.tab_k, fm_.tab_c, fm_.mesh_par, phase, prate,
+            fm_.vd_r, fm_.vd_i, fm_.vv_r, fm_.vv_i, fm_.mur, fm_.mui, fm_.pmr, fm_.pmi,
+            fm_.cstack, fm_.dfeed_static, self._hbuf,
+            fm_.tab_kf, fm_.tab_cf, fm_.jflag, fm_.tab_k, fm_.tab_c, fm_.jump_p, fm_.jump_k, fm_.jump_c,
+            fm_.mesh_par, self.locate_events, phase, prate,
             np.ascontiguousarray(kfac), np.ascontiguousarray(te), np.ascontiguousarray(ted),
-            np.ascontiguousarray(ampl), self.beta_act, self.ypred, self.contact, bound,
+            np.ascontiguousarray(ampl_k), self.beta_act, self.ypred, self.contact, mcarry, bound,
             out, dte, dted, fm, states, kt, et, edt, coef,
         )  # fmt: skip
+        self.n_substeps += nsub
         self.n_mesh_fail += nfail
         if status != kernels.STATUS_OK:
             raise SimulationDiverged(
@@ -1081,14 +1216,12 @@ class NewmarkStepper:
                 system.temperature_c,
                 "non-finite state" if status == kernels.STATUS_NONFINITE else f"|DTE| above {bound:g} m",
             )
-        ch = np.empty((n, len(self.specs)))
-        for o, i in enumerate(self.row_index):
-            ch[:, i] = out[:, o]
-        for i, s in enumerate(self.specs):
-            if s.kind == "dte":
-                ch[:, i] = dte[:, 0]
-            elif s.kind == "force":
-                ch[:, i] = fm[:, 0]
+        if all_in_gemm:
+            ch = out
+        else:  # only DTE / mesh force channels
+            ch = np.empty((n, len(self.specs)))
+            for i, sp in enumerate(self.specs):
+                ch[:, i] = dte[:, 0] if sp.kind == "dte" else fm[:, 0]
         if n:
             st.delta = dte[-1].copy()
             st.delta_dot = dted[-1].copy()
@@ -1138,6 +1271,17 @@ class SteadyResult:
         return self.data[:, self.channels.index(name)]
 
 
+#: Event location pays from this resolution on: below it the trapezoidal rule's period error at the
+#: mesh-coupled modes dominates the RMS error and location costs 30-45 % of the step rate for no
+#: consistent gain; from it on, located runs converge at second order (docs/solver.md).
+LOCATE_EVENTS_FROM_STEPS = 48
+
+
+def default_locate_events(steps_per_mesh: int) -> bool:
+    """Whether steps are split at mesh events by default at this resolution (docs/solver.md)."""
+    return int(steps_per_mesh) >= LOCATE_EVENTS_FROM_STEPS
+
+
 def check_steps_per_mesh(steps_per_mesh: int) -> None:
     if not (
         isinstance(steps_per_mesh, int | np.integer)
@@ -1161,6 +1305,7 @@ def simulate_steady(
     sample: str = "mesh",
     effects: Sequence[object] = (),
     chunk_steps: int = 65536,
+    locate_events: bool | None = None,
 ) -> tuple[SteadyResult, SolverState]:
     """Constant-speed run with ``dt = T_mesh / steps_per_mesh`` exactly (Poincare-ready).
 
@@ -1181,6 +1326,9 @@ def simulate_steady(
     sample : {"mesh", "step"}
         ``"mesh"``: one sample per mesh period, at the end of each period (phase 0 of the first
         mesh when starting from phase 0); ``"step"``: every step.
+    locate_events : bool, optional
+        Split steps at the mesh events inside them (see :class:`NewmarkStepper`); default
+        :func:`default_locate_events` of ``steps_per_mesh``.
 
     Returns
     -------
@@ -1195,7 +1343,9 @@ def simulate_steady(
     if f_mesh <= 0:
         raise ValueError("system: a steady run needs at least one mesh")
     specs = parse_channels(system, list(channels))
-    stepper = NewmarkStepper(system, specs, effects)
+    if locate_events is None:
+        locate_events = default_locate_events(steps_per_mesh)
+    stepper = NewmarkStepper(system, specs, effects, locate_events=locate_events)
     st = static_equilibrium(system, effects) if initial_state is None else initial_state.copy()
     period = 1.0 / f_mesh
     dt = period / steps_per_mesh
