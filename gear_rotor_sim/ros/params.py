@@ -223,7 +223,12 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         runtime=True,
     ),
     ParamSpec("output_sample_rate_hz", 20000.0, "Output sample rate of every stream, Hz.", (1.0, 1.0e6)),
-    ParamSpec("steps_per_mesh", 32, "Integration steps per mesh period.", (4, 4096)),
+    ParamSpec(
+        "steps_per_mesh",
+        32,
+        "Integration steps per mesh period (>= 48 also locates mesh events inside steps; 64 for 0.5 % RMS).",
+        (8, 4096),
+    ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
         "publish.bearings",

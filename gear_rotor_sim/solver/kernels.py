@@ -706,6 +706,7 @@ def _mesh_step(
     mesh_par: np.ndarray,
     s_prev: int,
     forced: bool,
+    einv: float,
 ) -> tuple[int, float, float, float, int]:
     """Exact mesh solve of one (sub)step (Eqs 25-26): state, force, delta, delta' at its end, failure.
 
@@ -735,7 +736,8 @@ def _mesh_step(
     for j in range(1, nb):
         gd += pq[0, j] * coef[j]
         gv += pq[1, j] * coef[j]
-    einv = 1.0 / (1.0 - kbar * h_d - cbar * h_v)
+    if einv == 0.0:  # not precomputed (sub-steps): eliminate the compensation column here
+        einv = 1.0 / (1.0 - kbar * h_d - cbar * h_v)
     pcomp = (kbar * ad + cbar * av) * einv
     qcomp = (kbar * gd + cbar * gv) * einv
     a1 = ad + h_d * pcomp
@@ -1070,7 +1072,7 @@ def _event_step(
             isc[0] = s_prev
             return STATUS_NONFINITE
         ns, fm, d, dd, fail = _mesh_step(
-            ypd, ypv, psd, psv, pqs, beta_prev, beta_new, coef, k, e, ed_, mesh_par, s_prev, kind == 2
+            ypd, ypv, psd, psv, pqs, beta_prev, beta_new, coef, k, e, ed_, mesh_par, s_prev, kind == 2, 0.0
         )
         if allow[i] == 1 and ns != s_prev and m < _MAX_PIECES:
             tc = _locate_crossing(d_prev - e_prev, dd_prev - ed_prev, d - e, dd - ed_, bst, w * dt)
@@ -1291,6 +1293,7 @@ def run_chunk_one_mesh(
     cvr = crv_r[:n_forced]
     cvi = crv_i[:n_forced]
     n_jump = jump_p.shape[0] if locate else 0
+    einv_reg = 1.0 / (1.0 - kbar * pq[0, 0] - cbar * pq[1, 0])  # compensation column, full steps
     nt_tab = tab_kf.shape[0]
     has_kfac = kfac.shape[0] > 0
     has_te = te_add.shape[0] > 0
@@ -1369,7 +1372,7 @@ def run_chunk_one_mesh(
                 return STATUS_NONFINITE, n - 1, n_fail, isc[2]
             ns, fm, d, dd, fail = _mesh_step(
                 ypred[0], ypred[1], pq_static[0], pq_static[1], pq, beta_prev, beta_new, coef, k, e, ed_,
-                mesh_par, s_prev, False,
+                mesh_par, s_prev, False, einv_reg,
             )  # fmt: skip
             if locate and ns != s_prev:
                 regular = False  # a contact change inside the step: redo it as located sub-steps
