@@ -18,7 +18,7 @@ from gear_rotor_sim.examples import paper_gearbox
 from gear_rotor_sim.gears import paper_gear_pair
 from gear_rotor_sim.materials import carbon_steel
 from gear_rotor_sim.simulator import Simulator
-from gear_rotor_sim.solver import kernels
+from gear_rotor_sim.solver import mesh_kernel
 from gear_rotor_sim.solver.newmark import (
     _jump_intervals,
     default_locate_events,
@@ -45,7 +45,7 @@ def tables() -> tuple:
 
 def _kernel_tables(arrays: tuple, f: float, strict: bool) -> tuple[float, np.ndarray]:
     coef = np.zeros(arrays[1].shape[1])
-    k = kernels._tables_at(f, strict, *arrays, coef)
+    k = mesh_kernel._tables_at(f, strict, *arrays, coef)
     return k, coef
 
 

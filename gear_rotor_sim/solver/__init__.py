@@ -1,4 +1,8 @@
-"""Nonlinear Newmark solver: exact modal trapezoidal map (set-up in ``newmark``, kernels in ``kernels``)."""
+"""Nonlinear Newmark solver: exact modal trapezoidal map.
+
+Set-up in ``newmark``; compiled kernels in ``kernels`` (general) and ``mesh_kernel`` (single-mesh fast
+path with event location); anti-aliasing decimation in ``decimate``.
+"""
 
 from gear_rotor_sim.solver.newmark import (
     DTE_BOUND_M,

@@ -32,7 +32,7 @@ import scipy.linalg as sla
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from gear_rotor_sim.solver import kernels
+from gear_rotor_sim.solver import kernels, mesh_kernel
 from gear_rotor_sim.system_data import DOF_NAMES, AssembledSystem
 
 #: Relative speed quantum of the eigenbasis cache: the gyroscopic matrix is taken at the speed rounded
@@ -327,7 +327,7 @@ def eigen_basis(lin: LinearModel, omega: float, force_dense: bool = False) -> Ba
     """Diagonalise the state matrix at input speed ``omega`` (rad/s); fall back to dense if needed.
 
     Kept modes are ordered with the *forced* modes first: those that a force column other than the
-    static load reaches, or that the mesh deflection reads (see :func:`kernels.run_chunk_one_mesh`).
+    static load reaches, or that the mesh deflection reads (see :func:`mesh_kernel.run_chunk_one_mesh`).
     """
     a = lin.state_matrix(omega)
     n = lin.nfree
@@ -477,7 +477,7 @@ def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelS
 
 @dataclass
 class FastMap:
-    """Arrays of :func:`kernels.run_chunk_one_mesh` (one mesh with tables, modal map).
+    """Arrays of :func:`mesh_kernel.run_chunk_one_mesh` (one mesh with tables, modal map).
 
     Active force columns: 0 = ``u`` (the mean-mesh compensation column ``+V``, which also carries the
     line-of-action part ``-V`` of the mesh force), 1..nb-1 = friction basis columns, then effects.
@@ -1160,7 +1160,7 @@ class NewmarkStepper:
     def _run_fast(
         self, t: np.ndarray, angle: np.ndarray, speed: np.ndarray, st: SolverState, bound: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-        """:meth:`run` through :func:`kernels.run_chunk_one_mesh` (one mesh, tables, modal map)."""
+        """:meth:`run` through :func:`mesh_kernel.run_chunk_one_mesh` (one mesh, tables, modal map)."""
         fm_ = self.fast
         assert fm_ is not None
         lin = self.lin
@@ -1196,7 +1196,7 @@ class NewmarkStepper:
         if self._hbuf.shape[1] != fm_.cstack.shape[0]:
             self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, fm_.cstack.shape[0]))
         mcarry = np.array([st.delta[0], st.delta_dot[0], st.force[0]])
-        status, step, nfail, nsub = kernels.run_chunk_one_mesh(
+        status, step, nfail, nsub = mesh_kernel.run_chunk_one_mesh(
             self.zr, self.zi, self.map.rr, self.map.ri, fm_.c0r, fm_.c0i, fm_.swr, fm_.swi, fm_.n_forced,
             fm_.crd_r, fm_.crd_i, fm_.crv_r, fm_.crv_i, fm_.pq, fm_.pq_static,
             fm_.vd_r, fm_.vd_i, fm_.vv_r, fm_.vv_i, fm_.mur, fm_.mui, fm_.pmr, fm_.pmi,
