@@ -467,6 +467,8 @@ def _event_step(
     n: int,
     nev: int,
     end_jump: float,
+    tc0: float,
+    dest0: int,
     bnd: np.ndarray,
     bfe: np.ndarray,
     ph_a: float,
@@ -546,6 +548,16 @@ def _event_step(
         bfe[m] = end_jump
     for i in range(m):
         allow[i] = 1
+    if tc0 > 0.0:  # contact change already located on the full step (no jump in it): split there
+        bnd[2] = bnd[1]
+        bkind[2] = bkind[1]
+        bfe[2] = bfe[1]
+        bnd[1] = tc0
+        bkind[1] = 2
+        bdest[1] = dest0
+        allow[0] = 0
+        allow[1] = 0
+        m = 2
     k = e = ed_ = fm = d = dd = 0.0
     i = 0
     while i < m:
@@ -796,6 +808,7 @@ def run_chunk_one_mesh(
     cvi = crv_i[:n_forced]
     n_jump = jump_p.shape[0] if locate else 0
     einv_reg = 1.0 / (1.0 - kbar * pq[0, 0] - cbar * pq[1, 0])  # compensation column, full steps
+    dt = mesh_par[6]
     nt_tab = tab_kf.shape[0]
     has_kfac = kfac.shape[0] > 0
     has_te = te_add.shape[0] > 0
@@ -843,6 +856,8 @@ def run_chunk_one_mesh(
         regular = nev == 0 and end_jump < 0.0
         ns = s_prev
         fm = d = dd = k = e = ed_ = 0.0
+        tc0 = -1.0
+        dest0 = 0
         if regular:
             # tables, TE and effect inputs at the step end (the body of _excite, written out: the
             # inlined call costs measurably more in this loop)
@@ -877,7 +892,13 @@ def run_chunk_one_mesh(
                 mesh_par, s_prev, False, einv_reg,
             )  # fmt: skip
             if locate and ns != s_prev:
-                regular = False  # a contact change inside the step: redo it as located sub-steps
+                # a contact change inside the step: locate it from this full-step solution, then redo
+                # the step as two sub-steps split there (none if no crossing is found)
+                tc0 = _locate_crossing(d_prev - e_prev, dd_prev - ed_prev, d - e, dd - ed_, mesh_par[3], dt)
+                regular = tc0 <= 0.0
+                dest0 = ns
+                if regular:
+                    n_fail += fail
             else:
                 n_fail += fail
         if regular:
@@ -944,7 +965,7 @@ def run_chunk_one_mesh(
             isc[0] = s_prev
             isc[1] = 0
             status = _event_step(
-                n, nev, end_jump, bnd, bfe, ph_a, dph, zr, zi, c0r, c0i, swr, swi, n_forced,
+                n, nev, end_jump, tc0, dest0, bnd, bfe, ph_a, dph, zr, zi, c0r, c0i, swr, swi, n_forced,
                 vd_r, vd_i, vv_r, vv_i, mur, mui, pmr, pmi,
                 tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, mesh_par, phase, phase_rate,
                 kfac, te_add, ted_add, ampl, beta_prev, beta_new, alpha, coef,
