@@ -195,6 +195,8 @@ def fill_chunk(msg: VibrationChunk, fields: dict) -> VibrationChunk:
 
 #: Blocks the stepping thread may run ahead of the output thread (publishing and recording).
 _OUTPUT_QUEUE = 2
+#: Interpreter-lock switch interval of the node process (Python's default is 5 ms).
+GIL_SWITCH_INTERVAL_S = 2e-4
 
 
 class SimulatorNode(Node):
@@ -676,6 +678,9 @@ class SimulatorNode(Node):
 def main(args: list[str] | None = None) -> int:
     """Console script ``simulator``: run the node until SIGINT/SIGTERM; 2 on invalid parameters."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    # The stepping thread takes the interpreter lock back after every compiled (nogil) call; with the
+    # default 5 ms switch interval it can wait that long behind the output thread's Python work.
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     stop = threading.Event()
 
     def _on_signal(signum: int, _frame: Any) -> None:
