@@ -246,6 +246,19 @@ class GearRotorSystem:
         )
 
 
+def _mesh_stiffnesses(system: AssembledSystem, mesh_stiffness: float | Sequence[float] | None) -> list[float]:
+    """One stiffness per mesh: the mean of each mesh (None), one value for all, or one per mesh."""
+    n_mesh = len(system.meshes)
+    if mesh_stiffness is None:
+        return [m.mean_stiffness for m in system.meshes]
+    if np.isscalar(mesh_stiffness):
+        return [float(mesh_stiffness)] * n_mesh  # type: ignore[arg-type]
+    ks = [float(k) for k in mesh_stiffness]  # type: ignore[union-attr]
+    if len(ks) != n_mesh:
+        raise ValueError(f"mesh_stiffness: {len(ks)} values given for {n_mesh} meshes")
+    return ks
+
+
 def static_solution(
     system: AssembledSystem, mesh_stiffness: float | Sequence[float] | None = None
 ) -> np.ndarray:
@@ -279,15 +292,7 @@ def static_solution(
     ----------
     Sun et al. (2021), Eqs 21, 22, 25, 26, 39.
     """
-    n_mesh = len(system.meshes)
-    if mesh_stiffness is None:
-        ks = [m.mean_stiffness for m in system.meshes]
-    elif np.isscalar(mesh_stiffness):
-        ks = [float(mesh_stiffness)] * n_mesh
-    else:
-        ks = [float(k) for k in mesh_stiffness]  # type: ignore[union-attr]
-        if len(ks) != n_mesh:
-            raise ValueError(f"mesh_stiffness: {len(ks)} values given for {n_mesh} meshes")
+    ks = _mesh_stiffnesses(system, mesh_stiffness)
     K = system.K.copy()
     rhs = system.static_load.copy()
     for m, k in zip(system.meshes, ks, strict=True):
@@ -313,13 +318,7 @@ def mesh_forces(
     system: AssembledSystem, q: np.ndarray, mesh_stiffness: float | Sequence[float] | None = None
 ) -> np.ndarray:
     """Static mesh forces ``F_m = k (V q - b*)`` (Eq 25 with e = 0, drive flank) for ``q``, N."""
-    n_mesh = len(system.meshes)
-    if mesh_stiffness is None:
-        ks = [m.mean_stiffness for m in system.meshes]
-    elif np.isscalar(mesh_stiffness):
-        ks = [float(mesh_stiffness)] * n_mesh
-    else:
-        ks = [float(k) for k in mesh_stiffness]  # type: ignore[union-attr]
+    ks = _mesh_stiffnesses(system, mesh_stiffness)
     return np.array(
         [k * (m.line_of_action @ q - m.half_backlash) for m, k in zip(system.meshes, ks, strict=True)]
     )

@@ -151,25 +151,12 @@ def _padding_positions(f: dict) -> set[int]:
 
 
 def _rclpy_chunk(f: dict):
-    import array
-
+    """The message the node publishes for these fields (built by the node's own ``fill_chunk``)."""
     from gear_rotor_msgs.msg import VibrationChunk
-    from std_msgs.msg import MultiArrayDimension
 
-    m = VibrationChunk()
-    m.header.stamp.sec = f["stamp_sec"]
-    m.header.stamp.nanosec = f["stamp_nanosec"]
-    m.header.frame_id = f["frame_id"]
-    m.sequence = f["sequence"]
-    m.first_sample_index = f["first_sample_index"]
-    m.sample_rate_hz = f["sample_rate_hz"]
-    m.speed_rpm = f["speed_rpm"]
-    m.temperature_c = f["temperature_c"]
-    m.channel_names = f["channel_names"]
-    m.units = f["units"]
-    m.layout.dim = [MultiArrayDimension(label=a, size=b, stride=c) for a, b, c in f["layout_dim"]]
-    m.data = array.array("d", np.asarray(f["data"], dtype="<f8").tobytes())
-    return m
+    from gear_rotor_sim.ros.simulator_node import fill_chunk
+
+    return fill_chunk(VibrationChunk(), f)
 
 
 @pytest.mark.ros

@@ -134,6 +134,18 @@ def plot_spectrum(
     return _save(fig, path)
 
 
+def _paper_points_and_labels(
+    ax: Any, paper_points: Sequence[tuple[float, float, float]], bearing: int
+) -> None:
+    """The paper's (temperature, speed, force) points as open circles, and the axis labels."""
+    for t, s, f in paper_points:
+        ax.plot([s], [f], "o", mfc="none", color=_color(t), ms=8)
+    if paper_points:
+        ax.plot([], [], "o", mfc="none", color="k", label="paper (text)")
+    ax.set_xlabel("input speed (rpm)")
+    ax.set_ylabel(f"RMS total force, bearing {bearing} (N)")
+
+
 def plot_bearing_force(
     sweep: SweepResult,
     path: str | Path,
@@ -160,12 +172,7 @@ def plot_bearing_force(
             color=_color(t),
             label=f"{t:g} C",
         )
-    for t, s, f in paper_points:
-        ax.plot([s], [f], "o", mfc="none", color=_color(t), ms=8)
-    if paper_points:
-        ax.plot([], [], "o", mfc="none", color="k", label="paper (text)")
-    ax.set_xlabel("input speed (rpm)")
-    ax.set_ylabel(f"RMS total force, bearing {bearing} (N)")
+    _paper_points_and_labels(ax, paper_points, bearing)
     ax.set_title(f"Bearing {bearing} force vs speed, bearings {bearing_type}", fontsize=10)
     ax.legend(fontsize=8)
     return _save(fig, path)
@@ -338,12 +345,7 @@ def plot_bearing_force_scales(
                 color=_color(t),
                 label=f"{t:g} C, k x {s:g}",
             )
-    for t, sp, f in paper_points:
-        ax.plot([sp], [f], "o", mfc="none", color=_color(t), ms=8)
-    if paper_points:
-        ax.plot([], [], "o", mfc="none", color="k", label="paper (text)")
-    ax.set_xlabel("input speed (rpm)")
-    ax.set_ylabel(f"RMS total force, bearing {bearing} (N)")
+    _paper_points_and_labels(ax, paper_points, bearing)
     ax.set_title(f"Bearing {bearing} force vs speed for mesh-stiffness scales (A#)", fontsize=10)
     ax.legend(fontsize=7, ncol=len(scales))
     return _save(fig, path)

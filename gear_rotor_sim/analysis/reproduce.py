@@ -1406,31 +1406,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _fig7_rows(r: dict[str, Any], speed_rpm: float) -> list[dict[str, Any]]:
+    keys = ("temperature_c", "paper_n", "model_n", "rel_error")
+    return [{k: x[k] for k in keys} for x in r["fig7"] if x["speed_rpm"] == speed_rpm]
+
+
 def summary_json(r: dict[str, Any]) -> dict[str, Any]:
     """The JSON object printed by ``--json``."""
     b = r["benchmark"]
     return {
         "level": r["level"],
-        "fig7_1000rpm": [
-            {
-                "temperature_c": x["temperature_c"],
-                "paper_n": x["paper_n"],
-                "model_n": x["model_n"],
-                "rel_error": x["rel_error"],
-            }
-            for x in r["fig7"]
-            if x["speed_rpm"] == 1000.0
-        ],
-        "fig7_14400rpm": [
-            {
-                "temperature_c": x["temperature_c"],
-                "paper_n": x["paper_n"],
-                "model_n": x["model_n"],
-                "rel_error": x["rel_error"],
-            }
-            for x in r["fig7"]
-            if x["speed_rpm"] == 14400.0
-        ],
+        "fig7_1000rpm": _fig7_rows(r, 1000.0),
+        "fig7_14400rpm": _fig7_rows(r, 14400.0),
         "fig8_19000rpm_node9": [
             {
                 "temperature_c": x["temperature_c"],

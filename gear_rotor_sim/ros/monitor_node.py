@@ -28,20 +28,14 @@ from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValu
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from gear_rotor_sim.indicators import compute_indicators
 from gear_rotor_sim.ros.params import MONITOR_PARAMETERS, ParamError, broadcast, declare, spec_by_name
-from gear_rotor_sim.ros.simulator_node import stream_qos
+from gear_rotor_sim.ros.simulator_node import RELIABLE_QOS, stream_qos
 from gear_rotor_sim.streams import time_to_stamp
 
 NODE_NAME = "gear_rotor_monitor"
-INDICATORS_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=10,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+INDICATORS_QOS = RELIABLE_QOS
 
 
 class SampleWindow:

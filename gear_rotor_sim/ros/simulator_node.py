@@ -71,12 +71,14 @@ from gear_rotor_sim.streams import StreamSpec, chunk_fields, default_streams, ti
 NODE_NAME = "gear_rotor_simulator"
 SPEED_SETPOINT_TOPIC = "/gear_rotor/setpoint/speed_rpm"
 TEMPERATURE_SETPOINT_TOPIC = "/gear_rotor/setpoint/temperature_c"
-SETPOINT_QOS = QoSProfile(
+#: Reliable, keep last 10, volatile: setpoints here, condition indicators in the monitor node.
+RELIABLE_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=10,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
+SETPOINT_QOS = RELIABLE_QOS
 CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 DIAGNOSTICS_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE
