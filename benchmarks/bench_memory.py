@@ -8,7 +8,8 @@ warm-up chunk, at the middle and at the end, the peak (``ru_maxrss``), and the l
 of RSS against simulated time over the second half of the run. If the run is shorter than the
 target, the RSS at the target is extrapolated linearly from that slope (labelled as such).
 
-Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--wall 180] [--target 600]``.
+Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--wall 180] [--target 600]
+[--speed RPM]``.
 """
 
 from __future__ import annotations
@@ -82,8 +83,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description="RSS of a long streaming run")
     ap.add_argument("--wall", type=float, default=180.0, help="wall-time budget, s")
     ap.add_argument("--target", type=float, default=600.0, help="simulated duration of interest, s")
+    ap.add_argument(
+        "--speed",
+        type=float,
+        default=3000.0,
+        help="input speed, rpm (7000: the dt rule's contact-loss setting)",
+    )
     args = ap.parse_args()
-    res = run(args.wall, args.target)
+    res = run(args.wall, args.target, args.speed)
     print(
         f"Simulator.advance({CHUNK_S}) x {res['chunks']} at {res['speed_rpm']:.0f} rpm, 25 C, 20 kHz, "
         f"{res['channels']} channels: {res['simulated_s']:.1f} s simulated in {res['wall_s']:.1f} s wall "

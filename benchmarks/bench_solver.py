@@ -8,17 +8,20 @@ because the machine is shared.
 (a) steps/s: ``NewmarkStepper.run`` on 65,536-step chunks (the kernel with its per-chunk Python
     wrapper, as ``simulate_steady`` calls it) and ``simulate_steady(..., sample="mesh")`` over a
     long run including its per-call set-up (eigendecomposition, static state); DTE only and the
-    16 default Simulator channels; 3000 and 20000 rpm (20 % contact loss at 20000 rpm).
-(b) real-time factor of ``Simulator.advance`` (default dt rule: >= 32 steps per mesh period,
-    output 20 kHz, anti-aliasing decimation included), channels ``["dte"]`` and the default set.
+    16 default Simulator channels; 3000 and 20000 rpm (43 % contact loss at 20000 rpm).
+    The same with the default dt rule (DTE only): at 20000 rpm the teeth separate, so the rule
+    integrates at >= 320 kHz (34 steps/mesh) with the mesh events located.
+(b) real-time factor of ``Simulator.advance`` (default dt rule: >= 32 steps per mesh period, >= 320 kHz
+    and events located while the teeth separate; output 20 kHz, anti-aliasing decimation included),
+    channels ``["dte"]`` and the default set.
 (c) set-up per temperature (system assembly, linear model) and per speed (eigendecomposition of the
     state matrix; step map per dt).
 (d) bifurcation sweep (``run_bifurcation``, default RunSettings: 300 transient + 200 sampled mesh
-    periods, 32 steps/mesh, continuation) over 500-20000 rpm: 40 speeds on one worker, extrapolated
+    periods, the default dt rule, continuation) over 500-20000 rpm: 40 speeds on one worker, extrapolated
     to 400 (labelled), and the full 400 speeds on the default (2) workers, set-up included.
 
-``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, the smaller of 3000 and 20000
-rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
+``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
+3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
 reproduce command imports it (``quick=True`` takes well under a minute).
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_solver.py [--quick] [--json PATH]``.
@@ -100,13 +103,19 @@ def kernel_steps_per_s(system: object, rpm: float, channels: Sequence[str], repe
 
 
 def steady_steps_per_s(
-    system: object, rpm: float, channels: Sequence[str], n_periods: int, repeats: int
+    system: object, rpm: float, channels: Sequence[str], n_periods: int, repeats: int, rule: bool = False
 ) -> dict:
-    """``simulate_steady(sample="mesh")`` over ``n_periods`` mesh periods, per-call set-up included."""
-    _, st = simulate_steady(system, rpm, 400, 1, STEPS_PER_MESH, tuple(channels))  # type: ignore[arg-type]
+    """``simulate_steady(sample="mesh")`` over ``n_periods`` mesh periods, per-call set-up included.
+
+    ``rule=False``: 32 steps per mesh period throughout, events not located (the cost of a step);
+    True: the default dt rule (steps counted as run: the rule may raise the resolution and locate).
+    """
+    kw = {} if rule else {"contact_loss_rate_hz": None}
+    _, st = simulate_steady(system, rpm, 400, 1, STEPS_PER_MESH, tuple(channels), **kw)  # type: ignore[arg-type]
+    used = {}
 
     def run() -> None:
-        simulate_steady(
+        res, _ = simulate_steady(
             system,  # type: ignore[arg-type]
             rpm,
             0,
@@ -115,10 +124,14 @@ def steady_steps_per_s(
             tuple(channels),
             initial_state=st,
             sample="mesh",
+            **kw,  # type: ignore[arg-type]
         )
+        used["spm"], used["located"] = res.steps_per_mesh, res.located
 
     r = timed(run, repeats)
-    n = n_periods * STEPS_PER_MESH
+    n = n_periods * used["spm"]
+    r["steps_per_mesh"] = used["spm"]
+    r["located"] = used["located"]
     r["steps"] = n
     r["steps_per_s"] = n / r["wall_s"]
     r["steps_per_cpu_s"] = n / r["cpu_s"]
@@ -203,6 +216,10 @@ def measure(quick: bool = True) -> dict:
             if not quick or name == "dte":
                 res["kernel"][key] = kernel_steps_per_s(system, rpm, ch, repeats)
             res["steady"][key] = steady_steps_per_s(system, rpm, ch, n_periods, repeats)
+            if name == "dte":
+                res.setdefault("steady_rule", {})[key] = steady_steps_per_s(
+                    system, rpm, ch, n_periods, repeats, rule=True
+                )
     res["simulator"] = {}
     chunk = 0.2 if quick else 0.5
     for name, ch in (("dte", ["dte"]), ("default16", None)):
@@ -228,13 +245,16 @@ def report(res: dict) -> None:
         return f"load {r['load'][0]:.1f}->{r['load'][1]:.1f}"
 
     print(f"load average at start {tuple(round(x, 2) for x in res['load_start'])}; quick={res['quick']}")
-    print("\n(a) steps/s, full model, one core, 32 steps/mesh (median of 5; wall | CPU)")
+    print("\n(a) steps/s, full model, one core, 32 steps/mesh unless stated (median of 5; wall | CPU)")
     for part, label in (
         ("kernel", "NewmarkStepper.run, 65536-step chunks"),
         ("steady", "simulate_steady sample=mesh"),
+        ("steady_rule", "simulate_steady, default dt rule"),
     ):
         for key, r in res[part].items():
             extra = f", {r['steps']} steps incl. set-up" if "steps" in r else ""
+            if part == "steady_rule":
+                extra += f", {r['steps_per_mesh']} steps/mesh, {'located' if r['located'] else 'not located'}"
             print(
                 f"  {label:40s} {key:20s} {r['steps_per_s'] / 1e6:6.3f} | "
                 f"{r['steps_per_cpu_s'] / 1e6:6.3f} M steps/s  ({la(r)}{extra})"

@@ -8,10 +8,11 @@ Time grids
 Output sample ``i`` is at ``t = i / output_rate_hz``. The integration step is
 ``dt = 1 / (k * output_rate_hz)`` with the integer ``k`` the smallest for which
 ``dt <= T_mesh / steps_per_mesh`` at the highest speed of the coming chunk (speed floor
-``DT_RULE_SPEED_FLOOR_RPM``). ``k`` is raised as soon as needed and lowered only when 25 % too large
-(hysteresis); it changes only on output-grid instants. The anti-aliasing FIR is centred (zero phase),
-so the integration runs its group delay (about 25 output periods) ahead of the last emitted sample;
-new set-points apply from the integration time.
+``DT_RULE_SPEED_FLOOR_RPM``) and, while the teeth separate, ``dt <= 1 / contact_loss_rate_hz`` with
+the mesh events located (the default dt rule, docs/solver.md). ``k`` is raised as soon as needed and
+lowered only when 25 % too large (hysteresis); it changes only on output-grid instants. The
+anti-aliasing FIR is centred (zero phase), so the integration runs its group delay (about 25 output
+periods) ahead of the last emitted sample; new set-points apply from the integration time.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 from gear_rotor_sim.blocks import SampleBlock
 from gear_rotor_sim.solver.decimate import StreamDecimator
 from gear_rotor_sim.solver.newmark import (
+    CONTACT_LOSS_RATE_HZ,
     MAX_STEPS_PER_MESH,
     MIN_STEPS_PER_MESH,
     SPEED_QUANTUM_REL,
@@ -36,10 +38,12 @@ from gear_rotor_sim.solver.newmark import (
     StepContext,
     available_channels,
     check_steps_per_mesh,
-    default_locate_events,
+    light_mesh_modes,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
+    resonance_rate_hz,
+    rule_locate_events,
     static_equilibrium,
 )
 from gear_rotor_sim.system_data import AssembledSystem
@@ -54,6 +58,10 @@ DT_RULE_SPEED_FLOOR_RPM = 60.0
 MAX_INTEGRATION_RATE_HZ = 2.0e7
 MAX_SPEED_RPM = 1.0e5
 _MAX_CHUNK_STEPS = 65536
+#: The dt rule decides on fixed instants of this spacing (whatever the chunking, so that the stream
+#: stays independent of how ``advance`` is called): contact-loss setting on if the teeth separated in
+#: the window just ended, off after a whole window in continuous contact, s.
+DT_RULE_WINDOW_S = 0.1
 
 
 class Effect(Protocol):
@@ -133,13 +141,19 @@ class Simulator:
         bearing forces and the pinion-node accelerations x, y.
     steps_per_mesh : int
         Minimum integration steps per mesh period (8..4096); default 32 (docs/solver.md).
+    contact_loss_rate_hz : float or None
+        The default dt rule: while the teeth separate (free flight or back-side contact in the last
+        window of ``DT_RULE_WINDOW_S``) the integration rate is at least this and the mesh events are
+        located; it returns to ``steps_per_mesh`` after a window in continuous contact. None:
+        ``steps_per_mesh`` throughout.
     speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
         Ramp rates toward new targets (> 0; ``inf`` jumps).
     effects : sequence of Effect
     locate_events : bool, optional
         Split integration steps at the mesh-table jumps and contact changes inside them (second-order
         accurate at those events, docs/solver.md); False takes them at the step instants (faster).
-        Default: on from ``LOCATE_EVENTS_FROM_STEPS`` steps per mesh period (``default_locate_events``).
+        Default: the dt rule (``rule_locate_events``): on while the teeth separate, and from
+        ``LOCATE_EVENTS_FROM_STEPS`` steps per mesh period.
     system_builder : callable, optional
         ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
     """
@@ -159,6 +173,7 @@ class Simulator:
         system_builder: Callable[[Any, float], AssembledSystem] | None = None,
         force_dense: bool = False,
         locate_events: bool | None = None,
+        contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
     ) -> None:
         _check_speed(speed_rpm)
         _check_temperature(temperature_c)
@@ -168,6 +183,13 @@ class Simulator:
                 "(it cannot exceed the highest integration rate)"
             )
         check_steps_per_mesh(steps_per_mesh)
+        if contact_loss_rate_hz is not None and not (
+            np.isfinite(contact_loss_rate_hz) and 0 < contact_loss_rate_hz <= MAX_INTEGRATION_RATE_HZ
+        ):
+            raise ValueError(
+                f"contact_loss_rate_hz: {contact_loss_rate_hz!r} must be in "
+                f"(0, {MAX_INTEGRATION_RATE_HZ:g}] or None"
+            )
         for name, rate in (
             ("speed_ramp_rpm_per_s", speed_ramp_rpm_per_s),
             ("temperature_ramp_c_per_s", temperature_ramp_c_per_s),
@@ -186,9 +208,13 @@ class Simulator:
         self.speed_ramp = float(speed_ramp_rpm_per_s)
         self.temperature_ramp = float(temperature_ramp_c_per_s)
         self._force_dense = force_dense
-        self.locate_events = (
-            default_locate_events(steps_per_mesh) if locate_events is None else bool(locate_events)
-        )
+        self.contact_loss_rate_hz = None if contact_loss_rate_hz is None else float(contact_loss_rate_hz)
+        self._locate_opt = None if locate_events is None else bool(locate_events)
+        self._loss_mode = False  # the dt rule's contact-loss setting is active
+        self._separated = False  # the teeth separated in the current dt-rule window
+        self._rule_window = max(1, round(DT_RULE_WINDOW_S * self.output_rate_hz))  # output samples
+        self._seg_out0 = 0  # output index of raw index 0 of the current raw segment
+        self.locate_events = bool(self._locate_opt)  # set from the dt rule once k is known
         self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         tq = self._tq(temperature_c)
         system = self._build(tq)
@@ -209,6 +235,7 @@ class Simulator:
         self._k = self._k_required(speed_rpm, speed_rpm, system)
         self._seg_t0 = 0.0  # time of raw index 0 of the current raw segment
         self._raw = 0  # raw steps done in the segment
+        self.locate_events = self._locate_now()
         self._omega_q = -1.0
         self._activate(stepper, self._state, speed_rpm)
         init = np.concatenate([stepper.initial_outputs(self._state), [speed_rpm, temperature_c]])
@@ -270,11 +297,33 @@ class Simulator:
             self._systems.move_to_end(tq)
         return hit
 
+    def _locate_now(self) -> bool:
+        if self._locate_opt is not None:
+            return self._locate_opt
+        return rule_locate_events(self._spm_now, self._loss_mode)
+
     def _k_required(self, s0: float, s1: float, system: AssembledSystem) -> int:
         f = mesh_frequency_hz(system, max(s0, s1, DT_RULE_SPEED_FLOOR_RPM))
         if f <= 0:  # no mesh: resolve the first torsional/bending modes instead, at least 4x
             return 4
-        return max(1, int(np.ceil(self.steps_per_mesh * f / self.output_rate_hz * (1 - 1e-12))))
+        rate = self.steps_per_mesh * f
+        if self.contact_loss_rate_hz is not None:  # the dt rule's contact-loss and resonance parts
+            if self._loss_mode:
+                rate = max(rate, self.contact_loss_rate_hz)
+            stepper = self._systems[self._tq_cur][1]
+            light = light_mesh_modes(stepper.lin, stepper.basis(quantize_speed_rpm(s0) * 2.0 * np.pi / 60.0))
+            for sp in (s0, s1):
+                fm = mesh_frequency_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM))
+                rate = max(rate, resonance_rate_hz(fm, light))
+            rate = min(rate, MAX_STEPS_PER_MESH * f)
+        return max(1, int(np.ceil(rate / self.output_rate_hz * (1 - 1e-12))))
+
+    @property
+    def _spm_now(self) -> float:
+        """Integration steps per mesh period at the current speed."""
+        system = self._systems[self._tq_cur][0]
+        f = mesh_frequency_hz(system, max(self.speed_rpm, DT_RULE_SPEED_FLOOR_RPM))
+        return self._k * self.output_rate_hz / f if f > 0 else float("inf")
 
     @property
     def dt(self) -> float:
@@ -373,6 +422,8 @@ class Simulator:
             "wall_s": time.perf_counter() - wall0,
             "dt_s": self.dt,
             "decimation": float(self._k),
+            "located": float(self.locate_events),
+            "contact_loss_rule": float(self._loss_mode),
             "mesh_solve_failures": float(self._stepper.n_mesh_fail),
         }
         return SampleBlock(
@@ -412,6 +463,10 @@ class Simulator:
         k = self._k
         end = self._raw + n
         end = -(-end // k) * k
+        if self.contact_loss_rate_hz is not None:  # and at the dt rule's next decision instant
+            w = self._rule_window
+            nxt = ((self._seg_out0 + self._raw // k) // w + 1) * w
+            end = min(end, (nxt - self._seg_out0) * k)
         return end - self._raw
 
     def _run_steps(self, n: int) -> tuple[np.ndarray, int, int]:
@@ -441,8 +496,11 @@ class Simulator:
         # angle anchored at the ramp start: the same values whatever the chunking
         angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
         temp = self._temp.value(t[1:-1])
+        self.locate_events = self._locate_now()
+        self._stepper.locate_events = self.locate_events
         ch, _, _, _, states, _ = self._stepper.run(t, angle, speed, self._state)
         self._raw += n
+        self._update_dt_rule(states)
         # the channels, speed and temperature go side by side straight into the decimator's store
         y = self._dec.push(ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp)
         if y0 is not None:
@@ -452,6 +510,18 @@ class Simulator:
             loss = int(np.count_nonzero(states[:, 0] == 0))
             back = int(np.count_nonzero(states[:, 0] < 0))
         return y, loss, back
+
+    def _update_dt_rule(self, states: np.ndarray) -> None:
+        """Contact-loss setting at the window ends: on after a separation, off after none."""
+        if self.contact_loss_rate_hz is None or not states.shape[1]:
+            return
+        if not self._separated and states.shape[0] and states[:, 0].min() < 2:  # free flight, back side
+            self._separated = True  # or pinned at +-b*
+        if self._raw % self._k or (self._seg_out0 + self._raw // self._k) % self._rule_window:
+            return
+        self._loss_mode = self._separated
+        self._separated = False
+        self.locate_events = self._locate_now()
 
     def _maybe_regrid(self) -> None:
         if self._raw % self._k:
@@ -463,12 +533,14 @@ class Simulator:
         k_req = self._k_required(s_now, s_end, system)
         if k_req > self._k or k_req <= 0.75 * self._k:
             self._dec.regrid(k_req, self._raw)
+            self._seg_out0 += self._raw // self._k
             self._seg_t0 = t
             self._raw = 0
             self._k = k_req
             self._activate(self._stepper, self._state, s_now)
         elif self._raw > 1 << 40:
             self._dec.rebase(self._raw)
+            self._seg_out0 += self._raw // self._k
             self._seg_t0 = t
             self._raw = 0
 

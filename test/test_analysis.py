@@ -245,7 +245,9 @@ def test_reduce_sweep_known_rms_and_amplitude() -> None:
             np.full(n, 80e-6),  # axial offset 80 um
         ]
     )
-    out = reduce_sweep(data, channels, settings, 1e-5, orbit_nodes=(1,), orbit_periods=2, orbit_stride=1)
+    out = reduce_sweep(
+        data, channels, settings, 1e-5, orbit_nodes=(1,), orbit_periods=2, orbit_samples_per_mesh=40
+    )
     rms = np.array([np.sqrt(300.0**2 + 400.0**2 / 2), 500.0 / np.sqrt(2), 1800.0])
     np.testing.assert_allclose(out["bearing_rms"][0], rms, rtol=1e-9)
     assert out["bearing_total_rms"][0] == pytest.approx(np.sqrt(np.sum(rms**2)), rel=1e-9)

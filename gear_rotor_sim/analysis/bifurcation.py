@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from gear_rotor_sim.analysis.classify import Motion, chaotic_windows, classify_motion, motion_windows
+from gear_rotor_sim.solver.newmark import CONTACT_LOSS_RATE_HZ
 
 # ---------------------------------------------------------------------------------------------------
 # Operating cases and model building
@@ -192,15 +193,19 @@ class RunSettings:
     n_periods : int
         Mesh periods sampled after the transient.
     steps_per_mesh : int
-        Newmark steps per mesh period (samples are kept at every step).
+        Newmark steps per mesh period while the teeth stay in contact (samples are kept at every step).
     first_transient_factor : float
         Transient multiplier for the first speed of a segment (no continuation state yet).
+    contact_loss_rate_hz : float or None
+        The default dt rule: once the teeth separate, at least this many steps per second with the
+        events located (``simulate_steady``); None keeps ``steps_per_mesh`` throughout.
     """
 
     n_transient_periods: int = 300
     n_periods: int = 200
     steps_per_mesh: int = 32
     first_transient_factor: float = 4.0
+    contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ
 
 
 def steady_run(
@@ -210,17 +215,19 @@ def steady_run(
     channels: Sequence[str],
     initial_state: Any = None,
     first: bool = False,
-) -> tuple[np.ndarray, Any]:
+) -> tuple[np.ndarray, Any, RunSettings]:
     """Integrate to steady state at one speed and return per-step samples.
 
     Returns
     -------
     data : numpy.ndarray
-        Shape ``(n_periods * steps_per_mesh, len(channels))``; sample ``k`` is step ``k + 1`` of the
-        sampled window, so samples ``steps_per_mesh - 1, 2 steps_per_mesh - 1, ...`` are at mesh
+        Shape ``(n_periods * spm, len(channels))`` with ``spm = used.steps_per_mesh``; sample ``k`` is
+        step ``k + 1`` of the sampled window, so samples ``spm - 1, 2 spm - 1, ...`` are at mesh
         phase 0.
     state : object
         The simulator's final state, passed back as ``initial_state`` for the next speed.
+    used : RunSettings
+        ``settings`` with the steps per mesh period the dt rule chose for the sampled window.
     """
     from gear_rotor_sim.solver.newmark import simulate_steady
 
@@ -236,12 +243,16 @@ def steady_run(
         channels=list(channels),
         initial_state=initial_state,
         sample="step",
+        contact_loss_rate_hz=settings.contact_loss_rate_hz,
     )
+    used = settings
+    if res.steps_per_mesh != settings.steps_per_mesh:
+        used = dataclasses.replace(settings, steps_per_mesh=res.steps_per_mesh)
     data = np.asarray(res.data, dtype=float)
-    expected = (settings.n_periods * settings.steps_per_mesh, len(channels))
+    expected = (used.n_periods * used.steps_per_mesh, len(channels))
     if data.shape != expected:
         raise RuntimeError(f"simulate_steady returned shape {data.shape}, expected {expected}")
-    return data, state
+    return data, state, used
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -375,9 +386,9 @@ def run_segment(
     walls = []
     for i, s in enumerate(np.asarray(speeds_rpm, dtype=float)):
         t0 = time.perf_counter()
-        data, state = steady_run(system, s, settings, channels, state, first=(i == 0))
-        dt = mesh_period_s(system, s) / settings.steps_per_mesh
-        rows.append(reducer(data, channels, settings, dt))
+        data, state, used = steady_run(system, s, settings, channels, state, first=(i == 0))
+        dt = mesh_period_s(system, s) / used.steps_per_mesh
+        rows.append(reducer(data, channels, used, dt))
         walls.append(time.perf_counter() - t0)
         _tick()
     out = {k: np.stack([r[k] for r in rows]) for k in rows[0]}
@@ -507,7 +518,7 @@ def _execute_local(tasks, settings, channels, reducer, segment_fn, n_workers, pr
         # Build every system (and compile the kernels with a short run) before the workers fork.
         for case in dict.fromkeys(c for c, _ in tasks):
             system = build_system(case)
-            warm = RunSettings(2, 2, settings.steps_per_mesh, 1.0)
+            warm = RunSettings(2, 2, settings.steps_per_mesh, 1.0, settings.contact_loss_rate_hz)
             steady_run(system, float(tasks[0][1][0]), warm, channels, None, first=False)
     q = ctx.Queue()
     with ProcessPoolExecutor(

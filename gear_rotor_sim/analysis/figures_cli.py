@@ -104,13 +104,13 @@ def _case(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     return Case(float(args.temperature), args.bearing, not args.no_thermal_backlash)
 
 
-def _single_speed(args: argparse.Namespace, channels: tuple[str, ...]) -> tuple[np.ndarray, float]:
+def _single_speed(args: argparse.Namespace, channels: tuple[str, ...]) -> tuple[np.ndarray, float, int]:
     from gear_rotor_sim.analysis.bifurcation import build_system, mesh_period_s, steady_run
 
     system = build_system(_case(args))
     settings = settings_from(args)
-    data, _ = steady_run(system, args.speed, settings, channels, None, first=True)
-    return data, mesh_period_s(system, args.speed) / settings.steps_per_mesh
+    data, _, used = steady_run(system, args.speed, settings, channels, None, first=True)
+    return data, mesh_period_s(system, args.speed) / used.steps_per_mesh, used.steps_per_mesh
 
 
 def _channel_unit(args: argparse.Namespace, name: str) -> str:
@@ -196,8 +196,7 @@ def _run(args: argparse.Namespace) -> int:
         from gear_rotor_sim.analysis.classify import classify_motion
         from gear_rotor_sim.analysis.poincare import phase_portrait
 
-        data, dt = _single_speed(args, ("dte",))
-        spm = args.steps_per_mesh
+        data, dt, spm = _single_speed(args, ("dte",))
         pp = phase_portrait(data[:, 0], 1.0 / dt, spm, offset=spm - 1)
         m = classify_motion(np.column_stack([pp.px, pp.pv]), [np.ptp(pp.x), np.ptp(pp.v)])
         title = f"{_case(args).label()}, {args.speed:g} rpm: {m.label}"
@@ -209,7 +208,7 @@ def _run(args: argparse.Namespace) -> int:
     elif args.kind == "spectrum":
         from gear_rotor_sim.analysis.signals import amplitude_spectrum, order_spectrum
 
-        data, dt = _single_speed(args, (args.channel,))
+        data, dt, _ = _single_speed(args, (args.channel,))
         x = data[:, 0]
         if args.order:
             spec = order_spectrum(x, 1.0 / dt, args.speed, samples_per_rev=4 * 29 * 8)

@@ -61,7 +61,7 @@ def reduce_sweep(
     dt: float,
     orbit_nodes: tuple[int, ...] = (9,),
     orbit_periods: int = 58,
-    orbit_stride: int = 2,
+    orbit_samples_per_mesh: int = 16,
 ) -> dict:
     """Per-speed statistics of a sweep (see the module docstring)."""
     ch = list(channels)
@@ -78,8 +78,12 @@ def reduce_sweep(
     out["node_amp_max"] = mag.max(axis=0)
     out["node_amp_rms"] = np.sqrt(np.mean(mag * mag, axis=0))
     out["node_pp"] = np.ptp(xyz, axis=0)
-    n_orb = min(orbit_periods, settings.n_periods) * settings.steps_per_mesh
-    orb = [data[-n_orb::orbit_stride, [ch.index(f"node{n}_x"), ch.index(f"node{n}_y")]] for n in orbit_nodes]
+    # the same number of orbit samples per mesh period whatever steps per mesh the dt rule chose
+    spm = settings.steps_per_mesh
+    n_p = min(orbit_periods, settings.n_periods)
+    k = np.arange(n_p * orbit_samples_per_mesh)
+    rows = data.shape[0] - n_p * spm + (k * spm) // orbit_samples_per_mesh
+    orb = [data[rows][:, [ch.index(f"node{n}_x"), ch.index(f"node{n}_y")]] for n in orbit_nodes]
     out["orbit"] = np.stack(orb)
     return out
 

@@ -226,8 +226,16 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "steps_per_mesh",
         32,
-        "Integration steps per mesh period (>= 48 also locates mesh events inside steps; 64 for 0.5 % RMS).",
+        "Integration steps per mesh period while the teeth stay in contact (>= 48 also locates mesh "
+        "events inside steps).",
         (8, 4096),
+    ),
+    ParamSpec(
+        "contact_loss_rate_hz",
+        320000.0,
+        "Default dt rule: while the teeth separate, at least this many integration steps per second "
+        "with the mesh events located (RMS DTE within 0.5 %, docs/solver.md); 0 keeps steps_per_mesh.",
+        (0.0, 2.0e7),
     ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(

@@ -305,6 +305,7 @@ class SimulatorNode(Node):
                 output_rate_hz=float(v["output_sample_rate_hz"]),
                 channels=list(dict.fromkeys(channels)),
                 steps_per_mesh=int(v["steps_per_mesh"]),
+                contact_loss_rate_hz=float(v["contact_loss_rate_hz"]) or None,
                 speed_ramp_rpm_per_s=float(v["speed_ramp_rpm_per_s"]),
                 temperature_ramp_c_per_s=float(v["temperature_ramp_c_per_s"]),
             )
