@@ -47,9 +47,9 @@ from gear_rotor_sim.solver.newmark import (
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
-    simulate_steady,
     step_map,
 )
+from gear_rotor_sim.solver.steady import simulate_steady
 from gear_rotor_sim.system import GearRotorSystem
 
 SPEEDS_RPM = (3000.0, 20000.0)

@@ -13,9 +13,9 @@ frequency; 7800-8100 rpm: the 11.0-11.8 kHz modes at the 3rd mesh harmonic). Per
 * the default rule and the old fixed default (32 steps, not located) also run from rest like the
   reference (``rest``).
 
-Rules: ``rule`` = the default (:func:`rule_steps_per_mesh`: 32 steps per mesh period in contact, at
-least 320 kHz with the events located while the teeth separate, and the resonance part near a light
-mode driven by a low mesh harmonic) and fixed 32 / 48 / 64 / 96 steps,
+Rules: ``rule`` = the default (``gear_rotor_sim.solver.dt_rule.rule_steps_per_mesh``: 32 steps per
+mesh period in contact, at least 320 kHz with the events located while the teeth separate, and the
+resonance part near a light mode driven by a low mesh harmonic) and fixed 32 / 48 / 64 / 96 steps,
 located (``L``) or not (``-``). The worst errors are taken over the periodic and quasi-periodic
 points; chaotic points are printed but not counted (the RMS of a chaotic window of 400 periods is a
 statistic, not a converged number).
@@ -34,7 +34,8 @@ import numpy as np
 
 from gear_rotor_sim.analysis.classify import classify_motion
 from gear_rotor_sim.examples import paper_gearbox
-from gear_rotor_sim.solver.newmark import SolverState, mesh_frequency_hz, simulate_steady
+from gear_rotor_sim.solver.newmark import SolverState, mesh_frequency_hz
+from gear_rotor_sim.solver.steady import simulate_steady
 from gear_rotor_sim.system import GearRotorSystem
 
 TEMPERATURES_C = (25.0, 125.0, 225.0)

@@ -33,7 +33,8 @@ import numpy as np
 
 from gear_rotor_sim.analysis.classify import classify_motion
 from gear_rotor_sim.examples import paper_gearbox
-from gear_rotor_sim.solver.newmark import mesh_frequency_hz, simulate_steady
+from gear_rotor_sim.solver.newmark import mesh_frequency_hz
+from gear_rotor_sim.solver.steady import simulate_steady
 from gear_rotor_sim.system import GearRotorSystem
 
 TEMPERATURES_C = (25.0, 225.0)

@@ -27,8 +27,13 @@ import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
 from gear_rotor_sim.solver.decimate import StreamDecimator
-from gear_rotor_sim.solver.newmark import (
+from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
+    light_mesh_modes,
+    resonance_rate_hz,
+    rule_locate_events,
+)
+from gear_rotor_sim.solver.newmark import (
     MAX_STEPS_PER_MESH,
     MIN_STEPS_PER_MESH,
     SPEED_QUANTUM_REL,
@@ -38,12 +43,9 @@ from gear_rotor_sim.solver.newmark import (
     StepContext,
     available_channels,
     check_steps_per_mesh,
-    light_mesh_modes,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
-    resonance_rate_hz,
-    rule_locate_events,
     static_equilibrium,
 )
 from gear_rotor_sim.system_data import AssembledSystem

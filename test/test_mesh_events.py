@@ -19,17 +19,19 @@ from gear_rotor_sim.gears import paper_gear_pair
 from gear_rotor_sim.materials import carbon_steel
 from gear_rotor_sim.simulator import Simulator
 from gear_rotor_sim.solver import mesh_kernel
-from gear_rotor_sim.solver.newmark import (
+from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
-    MAX_STEPS_PER_MESH,
-    _jump_intervals,
     default_locate_events,
-    mesh_frequency_hz,
     rule_locate_events,
     rule_steps_per_mesh,
-    simulate_steady,
+)
+from gear_rotor_sim.solver.newmark import (
+    MAX_STEPS_PER_MESH,
+    _jump_intervals,
+    mesh_frequency_hz,
     split_table_jumps,
 )
+from gear_rotor_sim.solver.steady import simulate_steady
 from gear_rotor_sim.system import GearRotorSystem
 
 MU = 0.05

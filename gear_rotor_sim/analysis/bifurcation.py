@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from gear_rotor_sim.analysis.classify import Motion, chaotic_windows, classify_motion, motion_windows
-from gear_rotor_sim.solver.newmark import CONTACT_LOSS_RATE_HZ
+from gear_rotor_sim.solver.dt_rule import CONTACT_LOSS_RATE_HZ
 
 # ---------------------------------------------------------------------------------------------------
 # Operating cases and model building
@@ -229,7 +229,7 @@ def steady_run(
     used : RunSettings
         ``settings`` with the steps per mesh period the dt rule chose for the sampled window.
     """
-    from gear_rotor_sim.solver.newmark import simulate_steady
+    from gear_rotor_sim.solver.steady import simulate_steady
 
     n_tr = settings.n_transient_periods
     if first or initial_state is None:

@@ -1,7 +1,8 @@
 """Nonlinear Newmark solver: exact modal trapezoidal map.
 
 Set-up in ``newmark``; compiled kernels in ``kernels`` (general) and ``mesh_kernel`` (single-mesh fast
-path with event location); anti-aliasing decimation in ``decimate``.
+path with event location); the default dt rule in ``dt_rule``; constant-speed runs in ``steady``;
+anti-aliasing decimation in ``decimate``.
 """
 
 from gear_rotor_sim.solver.newmark import (
@@ -12,15 +13,14 @@ from gear_rotor_sim.solver.newmark import (
     NewmarkStepper,
     SimulationDiverged,
     SolverState,
-    SteadyResult,
     StepContext,
     available_channels,
     mesh_law,
     parse_channels,
     quantize_speed_rpm,
-    simulate_steady,
     static_equilibrium,
 )
+from gear_rotor_sim.solver.steady import SteadyResult, simulate_steady
 
 __all__ = [
     "DTE_BOUND_M",
