@@ -29,6 +29,7 @@ from gear_rotor_sim.blocks import SampleBlock
 from gear_rotor_sim.solver.decimate import StreamDecimator
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
+    check_contact_loss_rate,
     light_mesh_modes,
     resonance_rate_hz,
     rule_locate_events,
@@ -185,13 +186,7 @@ class Simulator:
                 "(it cannot exceed the highest integration rate)"
             )
         check_steps_per_mesh(steps_per_mesh)
-        if contact_loss_rate_hz is not None and not (
-            np.isfinite(contact_loss_rate_hz) and 0 < contact_loss_rate_hz <= MAX_INTEGRATION_RATE_HZ
-        ):
-            raise ValueError(
-                f"contact_loss_rate_hz: {contact_loss_rate_hz!r} must be in "
-                f"(0, {MAX_INTEGRATION_RATE_HZ:g}] or None"
-            )
+        check_contact_loss_rate(contact_loss_rate_hz, MAX_INTEGRATION_RATE_HZ)
         for name, rate in (
             ("speed_ramp_rpm_per_s", speed_ramp_rpm_per_s),
             ("temperature_ramp_c_per_s", temperature_ramp_c_per_s),
@@ -216,7 +211,7 @@ class Simulator:
         self._separated = False  # the teeth separated in the current dt-rule window
         self._rule_window = max(1, round(DT_RULE_WINDOW_S * self.output_rate_hz))  # output samples
         self._seg_out0 = 0  # output index of raw index 0 of the current raw segment
-        self.locate_events = bool(self._locate_opt)  # set from the dt rule once k is known
+        self.locate_events = False  # set from the dt rule once k is known (below)
         self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         tq = self._tq(temperature_c)
         system = self._build(tq)

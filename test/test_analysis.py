@@ -378,3 +378,16 @@ def test_cli_from_a_file_of_the_wrong_kind(tmp_path: Path, capsys: pytest.Captur
     assert "not a saved sweep result" in capsys.readouterr().err
     assert cli.main(["figures", "bifurcation", "--from", str(png), "--out", str(tmp_path / "y.png")]) == 2
     assert "not a .npz archive" in capsys.readouterr().err
+
+
+def test_run_options_keep_the_dt_rule_unless_fixed_steps() -> None:
+    import argparse
+
+    from gear_rotor_sim.analysis.sweep_cli import add_run_arguments, settings_from
+    from gear_rotor_sim.solver.dt_rule import CONTACT_LOSS_RATE_HZ
+
+    parser = argparse.ArgumentParser()
+    add_run_arguments(parser)
+    assert settings_from(parser.parse_args([])).contact_loss_rate_hz == CONTACT_LOSS_RATE_HZ
+    fixed = settings_from(parser.parse_args(["--fixed-steps", "--steps-per-mesh", "48"]))
+    assert fixed.contact_loss_rate_hz is None and fixed.steps_per_mesh == 48

@@ -21,7 +21,7 @@ from gear_rotor_sim.simulator import Simulator
 from gear_rotor_sim.solver import mesh_kernel
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
-    default_locate_events,
+    check_contact_loss_rate,
     rule_locate_events,
     rule_steps_per_mesh,
 )
@@ -146,8 +146,11 @@ def test_located_stream_is_continuous_across_chunks() -> None:
 
 
 def test_default_locates_from_48_steps_per_mesh() -> None:
-    assert not default_locate_events(32)
-    assert default_locate_events(48) and default_locate_events(64)
+    assert not rule_locate_events(32, False) and not rule_locate_events(47.9, False)
+    assert rule_locate_events(48, False) and rule_locate_events(64, False)
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="contact_loss_rate_hz"):
+            check_contact_loss_rate(bad)
     cfg = load_config("paper_sun2021")
     assert not Simulator(cfg, channels=["dte"]).locate_events
     assert Simulator(cfg, channels=["dte"], steps_per_mesh=64).locate_events

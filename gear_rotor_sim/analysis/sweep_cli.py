@@ -60,7 +60,17 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--periods", type=int, default=d.n_periods, help="sampled mesh periods per speed")
     parser.add_argument("--transient", type=int, default=d.n_transient_periods, help="transient mesh periods")
     parser.add_argument(
-        "--steps-per-mesh", type=int, default=d.steps_per_mesh, help="Newmark steps per mesh period"
+        "--steps-per-mesh",
+        type=int,
+        default=d.steps_per_mesh,
+        help="Newmark steps per mesh period in continuous contact (the default dt rule refines it where "
+        "the teeth separate or a mesh harmonic meets a lightly damped mode; docs/solver.md)",
+    )
+    parser.add_argument(
+        "--fixed-steps",
+        action="store_true",
+        help="keep --steps-per-mesh throughout (no dt rule: faster, up to 8 %% RMS error where the "
+        "teeth separate)",
     )
     parser.add_argument(
         "--workers", type=int, default=None, help="local worker processes (default: all cores)"
@@ -155,7 +165,8 @@ def run_reporting_errors(command: str, body: Callable[[], int]) -> int:
 
 def settings_from(args: argparse.Namespace) -> RunSettings:
     d = RunSettings()
-    return RunSettings(args.transient, args.periods, args.steps_per_mesh, d.first_transient_factor)
+    rate = None if args.fixed_steps else d.contact_loss_rate_hz
+    return RunSettings(args.transient, args.periods, args.steps_per_mesh, d.first_transient_factor, rate)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

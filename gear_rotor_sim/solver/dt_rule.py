@@ -28,8 +28,6 @@ LOCATE_EVENTS_FROM_STEPS = 48
 #: Impacts excite the mesh-coupled modes (3.5-3.6 kHz) and the lightly damped 11.5-11.8 kHz modes
 #: whatever the mesh frequency, so the step is bounded in time, not per mesh period (docs/solver.md).
 CONTACT_LOSS_RATE_HZ = 320e3
-#: Mesh periods per chunk of :func:`simulate_steady` until the teeth first separate.
-RULE_PROBE_PERIODS = 64
 #: The dt rule's resonance part: a mode with damping ratio below ``RESONANCE_ZETA_MAX`` whose resonant
 #: DTE compliance is at least ``RESONANCE_PARTICIPATION`` of the static one is resolved, while a
 #: mesh harmonic ``h <= RESONANCE_HARMONICS`` lies within ``RESONANCE_HALF_WIDTHS`` half-power
@@ -42,9 +40,15 @@ RESONANCE_HALF_WIDTHS = 10.0
 RESONANCE_PERIOD_ERROR = 0.03
 
 
-def default_locate_events(steps_per_mesh: int) -> bool:
-    """Whether steps are split at mesh events at this resolution in continuous contact."""
-    return int(steps_per_mesh) >= LOCATE_EVENTS_FROM_STEPS
+def check_contact_loss_rate(contact_loss_rate_hz: float | None, upper_hz: float = math.inf) -> None:
+    """Refuse a contact-loss rate that is not finite and in (0, ``upper_hz``] (None: the rule is off)."""
+    if contact_loss_rate_hz is not None and not (
+        math.isfinite(contact_loss_rate_hz) and 0 < contact_loss_rate_hz <= upper_hz
+    ):
+        raise ValueError(
+            f"contact_loss_rate_hz: {contact_loss_rate_hz!r} must be finite, > 0 and <= {upper_hz:g}, "
+            "or None (fixed steps per mesh period)"
+        )
 
 
 def rule_locate_events(steps_per_mesh: float, contact_loss: bool) -> bool:

@@ -10,7 +10,7 @@ import numpy as np
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
     DEFAULT_STEPS_PER_MESH,
-    RULE_PROBE_PERIODS,
+    check_contact_loss_rate,
     light_mesh_modes,
     resonance_rate_hz,
     rule_locate_events,
@@ -26,6 +26,9 @@ from gear_rotor_sim.solver.newmark import (
     static_equilibrium,
 )
 from gear_rotor_sim.system_data import AssembledSystem
+
+#: Mesh periods of the first chunk (doubling after each) until the teeth first separate.
+RULE_PROBE_PERIODS = 64
 
 
 @dataclass
@@ -101,14 +104,13 @@ def simulate_steady(
     if f_mesh <= 0:
         raise ValueError("system: a steady run needs at least one mesh")
     specs = parse_channels(system, list(channels))
-    if contact_loss_rate_hz is not None and not (
-        np.isfinite(contact_loss_rate_hz) and contact_loss_rate_hz > 0
-    ):
-        raise ValueError(f"contact_loss_rate_hz: {contact_loss_rate_hz!r} must be finite and > 0, or None")
+    check_contact_loss_rate(contact_loss_rate_hz)
     adaptive = contact_loss_rate_hz is not None
-    spm = int(steps_per_mesh)
-    located = rule_locate_events(spm, False) if locate_events is None else bool(locate_events)
-    stepper = NewmarkStepper(system, specs, effects, locate_events=located)
+
+    def located(n: int, contact_loss: bool) -> bool:
+        return rule_locate_events(n, contact_loss) if locate_events is None else bool(locate_events)
+
+    stepper = NewmarkStepper(system, specs, effects)
     st = static_equilibrium(system, effects) if initial_state is None else initial_state.copy()
     period = 1.0 / f_mesh
     omega = speed_rpm * 2.0 * np.pi / 60.0
@@ -116,9 +118,8 @@ def simulate_steady(
     res_rate = (
         resonance_rate_hz(f_mesh, light_mesh_modes(stepper.lin, stepper.basis(omega_q))) if adaptive else 0.0
     )
-    spm = rule_steps_per_mesh(f_mesh, False, spm, contact_loss_rate_hz, res_rate)
-    if locate_events is None:
-        stepper.locate_events = rule_locate_events(spm, False)
+    spm = rule_steps_per_mesh(f_mesh, False, int(steps_per_mesh), contact_loss_rate_hz, res_rate)
+    stepper.locate_events = located(spm, False)
     dt = period / spm
     stepper.set_operating_point(omega_q, dt, st)
     left_tr, left_rec = int(n_transient_periods), int(n_periods)
@@ -148,9 +149,7 @@ def simulate_steady(
         if adaptive and not switched and lost:
             switched = True
             spm = rule_steps_per_mesh(f_mesh, True, int(steps_per_mesh), contact_loss_rate_hz, res_rate)
-            stepper.locate_events = (
-                rule_locate_events(spm, True) if locate_events is None else bool(locate_events)
-            )
+            stepper.locate_events = located(spm, True)
             dt = period / spm
             stepper.set_operating_point(omega_q, dt, st)
             seg_t0, seg_a0, seg_j = st.time, st.angle, 0
