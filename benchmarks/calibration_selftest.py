@@ -16,10 +16,10 @@ from pathlib import Path
 
 import yaml
 
-from gear_rotor_sim.calibration.effects import effect_name
 from gear_rotor_sim.calibration.fit import Calibrator, synthetic_measurement
 from gear_rotor_sim.calibration.measurement import load_measurement
 from gear_rotor_sim.config import load_config
+from gear_rotor_sim.faults import effect_name
 
 REPO = Path(__file__).resolve().parents[1]
 spec = importlib.util.spec_from_file_location("selftest", REPO / "test" / "test_calibration_selftest.py")

@@ -14,7 +14,14 @@ import numpy as np
 import pytest
 import yaml
 
-from gear_rotor_sim.calibration.effects import (
+from gear_rotor_sim.calibration.measurement import (
+    MeasurementError,
+    load_csv,
+    load_mat,
+    load_mcap,
+    load_measurement,
+)
+from gear_rotor_sim.faults import (
     BEARING_6205,
     BearingDefect,
     BearingGeometry,
@@ -23,13 +30,6 @@ from gear_rotor_sim.calibration.effects import (
     load_zone,
     tooth_share,
     wear_profile,
-)
-from gear_rotor_sim.calibration.measurement import (
-    MeasurementError,
-    load_csv,
-    load_mat,
-    load_mcap,
-    load_measurement,
 )
 
 SIDECAR = {

@@ -19,7 +19,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from gear_rotor_sim.calibration.effects import (
+from gear_rotor_sim.calibration.fit import Calibrator, synthetic_measurement
+from gear_rotor_sim.calibration.measurement import load_measurement
+from gear_rotor_sim.faults import (
     BearingDefect,
     Effect,
     GearEccentricity,
@@ -31,8 +33,6 @@ from gear_rotor_sim.calibration.effects import (
     ToothWear,
     effect_name,
 )
-from gear_rotor_sim.calibration.fit import Calibrator, synthetic_measurement
-from gear_rotor_sim.calibration.measurement import load_measurement
 
 REPO = Path(__file__).resolve().parents[1]
 CHANNELS = ["dte", "bearing2_fy", "bearing3_fy", "node3_ay"]

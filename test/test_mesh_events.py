@@ -160,7 +160,7 @@ def test_located_stream_with_an_effect_is_continuous_and_converges() -> None:
     """Effect forces and transmission errors are interpolated inside located steps from the grid
     values, including the carried step at a chunk boundary: two chunks equal one run, and the
     64-step located stream agrees with a 256-step one (second order, small step error)."""
-    from gear_rotor_sim.calibration.effects import GearEccentricity, ShaftMisalignment, ToothDamage
+    from gear_rotor_sim.faults import GearEccentricity, ShaftMisalignment, ToothDamage
 
     cfg = load_config("paper_sun2021")
     effects = (

@@ -20,10 +20,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from gear_rotor_sim.calibration.effects import BEARING_6205, candidate_effects
 from gear_rotor_sim.calibration.fit import CalibrationResult, Calibrator, FitSettings
 from gear_rotor_sim.calibration.measurement import Measurement, load_mat
 from gear_rotor_sim.calibration.residual import HousingSensor, ResidualSettings
+from gear_rotor_sim.faults import BEARING_6205, candidate_effects
 
 #: The subset in ../shared/data/cwru: file -> (condition, expected library effect or None).
 CWRU_FILES: dict[str, tuple[str, str | None]] = {

@@ -43,7 +43,19 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gear_rotor_sim.calibration.effects import (
+from gear_rotor_sim.calibration.measurement import Measurement
+from gear_rotor_sim.calibration.residual import (
+    Comparison,
+    HousingSensor,
+    ModelFeatures,
+    ModelRunner,
+    ResidualSettings,
+    Score,
+    housing_source,
+    residual_spectrum,
+    time_and_spectrum_errors,
+)
+from gear_rotor_sim.faults import (
     BEARING_6206,
     BearingDefect,
     BearingGeometry,
@@ -57,18 +69,6 @@ from gear_rotor_sim.calibration.effects import (
     ToothWear,
     candidate_effects,
     effect_name,
-)
-from gear_rotor_sim.calibration.measurement import Measurement
-from gear_rotor_sim.calibration.residual import (
-    Comparison,
-    HousingSensor,
-    ModelFeatures,
-    ModelRunner,
-    ResidualSettings,
-    Score,
-    housing_source,
-    residual_spectrum,
-    time_and_spectrum_errors,
 )
 
 

@@ -1,0 +1,51 @@
+"""Faults and effects: physical changes of the machine, below the simulator.
+
+One description of each change, applied by the simulator whoever asked for it: the node and
+``record --faults`` inject it, datasets label with it, the calibration fits its parameters
+(``../shared/ARCHITECTURE.md``, "Effects and faults"). Modules: ``base`` (Effect protocol
+defaults, parameter specs), ``gear``, ``shaft``, ``bearing``, ``operating`` (temperature offset),
+``baseline`` (uncertain nominal parameters, never reported as faults), ``library`` (names and the
+candidate set of a rig).
+"""
+
+from gear_rotor_sim.faults.base import Effect, ParameterSpec
+from gear_rotor_sim.faults.baseline import MeshStiffnessDamping
+from gear_rotor_sim.faults.bearing import (
+    BEARING_6205,
+    BEARING_6206,
+    BearingDefect,
+    BearingGeometry,
+    ball_defect,
+    inner_race_defect,
+    load_zone,
+    outer_race_defect,
+)
+from gear_rotor_sim.faults.gear import GearEccentricity, ToothDamage, ToothWear, tooth_share, wear_profile
+from gear_rotor_sim.faults.library import LIBRARY_NAMES, candidate_effects, effect_name
+from gear_rotor_sim.faults.operating import TemperatureOffset
+from gear_rotor_sim.faults.shaft import MassUnbalance, ShaftMisalignment
+
+__all__ = [
+    "BEARING_6205",
+    "BEARING_6206",
+    "LIBRARY_NAMES",
+    "BearingDefect",
+    "BearingGeometry",
+    "Effect",
+    "GearEccentricity",
+    "MassUnbalance",
+    "MeshStiffnessDamping",
+    "ParameterSpec",
+    "ShaftMisalignment",
+    "TemperatureOffset",
+    "ToothDamage",
+    "ToothWear",
+    "ball_defect",
+    "candidate_effects",
+    "effect_name",
+    "inner_race_defect",
+    "load_zone",
+    "outer_race_defect",
+    "tooth_share",
+    "wear_profile",
+]

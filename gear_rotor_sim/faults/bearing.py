@@ -1,0 +1,228 @@
+"""Rolling-bearing kinematics and localised defects (outer race, inner race, rolling element).
+
+Impulse trains at BPFO / BPFI / 2 BSF (from the bearing geometry) acting as a radial force at the
+bearing node; inner-race and ball impacts amplitude-modulated by the load zone at the shaft and
+the cage rate; 1-2 % random slip of the inter-impact interval (McFadden & Smith 1984; Antoni &
+Randall 2002; Randall & Antoni 2011).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from gear_rotor_sim.faults.base import Effect, ParameterSpec, node_xy_columns, shaft_index
+
+
+@dataclass(frozen=True)
+class BearingGeometry:
+    """Rolling-element bearing geometry for defect frequencies.
+
+    Attributes
+    ----------
+    n_balls : int
+        Number of rolling elements.
+    ball_diameter_m, pitch_diameter_m : float
+        Rolling-element and pitch diameters, m.
+    contact_angle_rad : float
+        Contact angle (0 for a deep-groove ball bearing under radial load).
+    name : str
+        Designation, e.g. ``"6205"``.
+    """
+
+    n_balls: int
+    ball_diameter_m: float
+    pitch_diameter_m: float
+    contact_angle_rad: float = 0.0
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        if self.n_balls < 3 or not 0 < self.ball_diameter_m < self.pitch_diameter_m:
+            raise ValueError(f"bearing geometry: need n_balls >= 3 and 0 < d < D, got {self}")
+
+    @property
+    def _r(self) -> float:
+        return self.ball_diameter_m / self.pitch_diameter_m * math.cos(self.contact_angle_rad)
+
+    def multiples(self) -> dict[str, float]:
+        """Defect frequencies as multiples of the shaft rate (inner ring rotating, outer fixed).
+
+        ``ftf = (1 - r)/2``, ``bpfo = n (1 - r)/2``, ``bpfi = n (1 + r)/2``,
+        ``bsf = D/(2 d) (1 - r^2)`` with ``r = d cos(alpha) / D`` (Harris & Kotzalas 2007, Ch. 8;
+        Randall & Antoni 2011, Eq 1-4).
+        """
+        r = self._r
+        n = self.n_balls
+        return {
+            "ftf": 0.5 * (1.0 - r),
+            "bpfo": 0.5 * n * (1.0 - r),
+            "bpfi": 0.5 * n * (1.0 + r),
+            "bsf": self.pitch_diameter_m / (2.0 * self.ball_diameter_m) * (1.0 - r * r),
+        }
+
+    def frequencies_hz(self, shaft_hz: float) -> dict[str, float]:
+        """Defect frequencies in Hz at a shaft rate in Hz."""
+        return {k: v * shaft_hz for k, v in self.multiples().items()}
+
+
+INCH = 0.0254
+# SKF 6205-2RS JEM (CWRU README): 9 balls, d = 0.3126 in, D = 1.537 in.
+BEARING_6205 = BearingGeometry(9, 0.3126 * INCH, 1.537 * INCH, 0.0, "6205")
+# SKF 6206 (30 mm bore, the paper gearbox's 30 mm shafts): 9 balls of 9.525 mm on a 46 mm pitch circle.
+BEARING_6206 = BearingGeometry(9, 9.525e-3, 46.0e-3, 0.0, "6206")
+
+
+def load_zone(
+    angle_rad: np.ndarray, load_angle_rad: float, extent: float = 0.5, exponent: float = 1.5
+) -> np.ndarray:
+    """Stribeck/Harris load distribution ``(1 - (1 - cos psi) / (2 extent))^n``, 0 outside the zone.
+
+    ``psi`` is the angle from the load direction; ``extent = 0.5`` is the half-loaded zone of a
+    radially loaded bearing with zero clearance, ``n = 1.5`` for ball bearings (Harris & Kotzalas
+    2007, Eq 7.26).
+    """
+    psi = np.asarray(angle_rad) - load_angle_rad
+    q = 1.0 - (1.0 - np.cos(psi)) / (2.0 * extent)
+    return np.where(q > 0, np.abs(q) ** exponent, 0.0)
+
+
+@dataclass(frozen=True)
+class BearingDefect(Effect):
+    """Localised defect in a rolling bearing: radial impulse train at the bearing node.
+
+    Impacts occur when the defect phase ``m theta / 2 pi`` (``m`` the defect multiple of the shaft
+    rate, ``theta`` the shaft angle) passes the impact instants, whose spacing is ``1 + slip xi_k``
+    with ``xi_k`` standard normal (random slip; Antoni & Randall 2002). Each impact is a half-sine
+    force pulse of ``pulse_s`` duration and peak ``force_n`` times the load-zone factor at the
+    defect's position, directed radially at that position:
+
+    * outer race: fixed at ``defect_angle_rad``; BPFO; no modulation;
+    * inner race: rotates with the shaft (``theta + defect_angle_rad``); BPFI; load-zone
+      modulation at the shaft rate;
+    * ball: spins at BSF and strikes both races (2 BSF); carried by the cage (angle
+      ``FTF theta + defect_angle_rad``): modulation at the cage rate.
+
+    Parameters
+    ----------
+    kind : str
+        ``"outer"``, ``"inner"`` or ``"ball"``.
+    bearing : int
+        1-based bearing (paper numbering).
+    force_n : float
+        Peak impact force, N.
+    geometry : BearingGeometry
+        For the defect frequencies.
+    slip : float
+        Relative standard deviation of the inter-impact interval (0.01-0.02 in real bearings).
+    load_angle_rad : float
+        Direction of the bearing load (centre of the load zone) in the x-y plane.
+    defect_angle_rad : float
+        Outer race: defect position; inner race/ball: position at shaft angle 0.
+    pulse_s : float
+        Impact duration, s.
+    seed : int
+        Seed of the slip sequence (reproducible).
+    """
+
+    kind: str = "outer"
+    bearing: int = 1
+    force_n: float = 0.0
+    geometry: BearingGeometry = BEARING_6206
+    slip: float = 0.015
+    load_angle_rad: float = -0.5 * math.pi
+    defect_angle_rad: float = -0.5 * math.pi
+    pulse_s: float = 1.0e-4
+    seed: int = 0
+    _cache: dict = field(default_factory=dict, compare=False, repr=False)
+    name: ClassVar[str] = "bearing_defect"
+    signature: ClassVar[str] = (
+        "envelope-spectrum lines at the defect frequency and harmonics (+- modulation sidebands)"
+    )
+    specs: ClassVar[tuple[ParameterSpec, ...]] = (
+        ParameterSpec("force_n", "N", 0.0, 5.0e4, "amplitude", "peak impact force"),
+    )
+    KINDS: ClassVar[dict[str, str]] = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}
+
+    def __post_init__(self) -> None:
+        if self.kind not in self.KINDS:
+            raise ValueError(f"kind: {self.kind!r} is not one of {list(self.KINDS)}")
+
+    @property
+    def label(self) -> str:
+        return (
+            f"{self.kind}_race_defect@bearing{self.bearing}"
+            if self.kind != "ball"
+            else (f"ball_defect@bearing{self.bearing}")
+        )
+
+    @property
+    def effect_name(self) -> str:
+        return "ball_defect" if self.kind == "ball" else f"{self.kind}_race_defect"
+
+    def impact_multiple(self) -> float:
+        """Impacts per shaft revolution."""
+        m = self.geometry.multiples()
+        return 2.0 * m["bsf"] if self.kind == "ball" else m[self.KINDS[self.kind]]
+
+    def _node0(self, system: Any) -> int:
+        return int(system.bearings[self.bearing - 1].node0)
+
+    def key_frequencies_hz(self, shaft_hz: float, harmonics: int = 2) -> list[float]:
+        """The characteristic envelope lines: first harmonics of BPFO, BPFI or 2 BSF."""
+        f = self.impact_multiple() * shaft_hz
+        return [h * f for h in range(1, harmonics + 1)]
+
+    def _instants(self, upto: float) -> np.ndarray:
+        """Impact instants in defect-phase units (cumulative, seeded), at least up to ``upto``."""
+        key = ("instants", self.seed, self.slip)
+        arr = self._cache.get(key)
+        if arr is None or arr[-1] < upto + 2:
+            n = int(max(upto, 1.0) * 1.3 + 64)
+            rng = np.random.default_rng(self.seed)
+            steps = 1.0 + self.slip * rng.standard_normal(n)
+            arr = np.concatenate([[0.25], 0.25 + np.cumsum(np.maximum(steps, 0.2))])
+            self._cache[key] = arr
+        return arr
+
+    def external_forces(self, system: Any) -> np.ndarray | None:
+        return node_xy_columns(system, self._node0(system))
+
+    def force_amplitudes(self, ctx: Any) -> np.ndarray | None:
+        system = ctx.system
+        s = shaft_index(system, self._node0(system))
+        theta = np.abs(ctx.shaft_angle[:, s])
+        omega = np.abs(ctx.shaft_speed[:, s])
+        mult = self.impact_multiple()
+        phase = mult * theta / (2.0 * math.pi)  # defect phase in impacts
+        inst = self._instants(float(phase.max()) if phase.size else 1.0)
+        k = np.searchsorted(inst, phase, side="right") - 1
+        valid = k >= 0
+        rate = np.maximum(mult * omega / (2.0 * math.pi), 1e-9)  # impacts per second
+        width = self.pulse_s * rate  # pulse width in phase units
+        since = np.where(valid, phase - inst[np.maximum(k, 0)], np.inf)
+        pulse = np.where(since < width, np.sin(math.pi * np.clip(since / width, 0, 1)), 0.0)
+        # position of the defect at the impact
+        if self.kind == "outer":
+            pos = np.full_like(theta, self.defect_angle_rad)
+            amp = np.ones_like(theta)
+        else:
+            rot = theta if self.kind == "inner" else self.geometry.multiples()["ftf"] * theta
+            pos = rot + self.defect_angle_rad
+            amp = load_zone(pos, self.load_angle_rad)
+        f = self.force_n * pulse * amp
+        return np.column_stack([f * np.cos(pos), f * np.sin(pos)])
+
+
+def outer_race_defect(**kw: Any) -> BearingDefect:
+    return BearingDefect(kind="outer", **kw)
+
+
+def inner_race_defect(**kw: Any) -> BearingDefect:
+    return BearingDefect(kind="inner", **kw)
+
+
+def ball_defect(**kw: Any) -> BearingDefect:
+    return BearingDefect(kind="ball", **kw)

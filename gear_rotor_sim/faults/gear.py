@@ -1,0 +1,173 @@
+"""Gear faults: eccentricity (run-out), localised tooth damage, uniform tooth wear.
+
+* ``pinion_eccentricity`` / ``gear_eccentricity``: geometric run-out ``e`` of the pitch circle adds
+  ``e sin(theta_s + phi)`` to the transmission error (shaft order 1 of that gear and sidebands of the
+  mesh orders) and the rotating force ``m_g e Omega_s^2`` of the displaced gear mass at its node
+  (Randall 2011, Sec 2.2.1; Mohammed et al. 2009).
+* ``tooth_damage``: a root crack or chipped tooth lowers the mesh stiffness by the fraction
+  ``depth`` of that tooth's share while it is engaged (Chaari et al. 2009; Mohammed et al. 2009):
+  once-per-revolution modulation, sidebands around the mesh orders.
+* ``tooth_wear``: uniform wear depth ``h``: the half backlash grows by ``h`` and a profile error
+  that is zero at the pitch point and grows towards root and tip with the sliding distance (Archard
+  wear; Flodin & Andersson 1997) adds ``h (|2 p - 1| - 1/2)`` to the transmission error over each
+  mesh cycle (phase ``p``): odd mesh harmonics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from gear_rotor_sim.config import RigConfig
+from gear_rotor_sim.faults.base import Effect, ParameterSpec, node_xy_columns
+
+
+@dataclass(frozen=True)
+class GearEccentricity(Effect):
+    """Geometric eccentricity (run-out) of the pinion or the gear.
+
+    Transmission error ``e sin(theta_s + phi)`` along the line of action, plus the rotating inertia
+    force ``m_g e Omega_s^2`` of the gear body displaced by ``e``.
+
+    Parameters
+    ----------
+    member : str
+        ``"pinion"`` or ``"gear"`` (the mesh's pinion/gear).
+    eccentricity_m : float
+        Run-out e, m.
+    phase_rad : float
+        Angular position of the high point at shaft angle 0, rad.
+    """
+
+    member: str = "pinion"
+    eccentricity_m: float = 0.0
+    phase_rad: float = 0.0
+    name: ClassVar[str] = "eccentricity"
+    signature: ClassVar[str] = (
+        "shaft order 1 of the eccentric gear; sidebands +-1 order around the mesh orders"
+    )
+    specs: ClassVar[tuple[ParameterSpec, ...]] = (
+        ParameterSpec("eccentricity_m", "m", 0.0, 200e-6, "amplitude", "pitch-circle run-out"),
+        ParameterSpec("phase_rad", "rad", -math.pi, math.pi, "phase", "high point at shaft angle 0"),
+    )
+
+    @property
+    def label(self) -> str:
+        return f"{self.member}_eccentricity"
+
+    def applicable(self, cfg: RigConfig) -> bool:
+        return bool(cfg.meshes)
+
+    def _gear(self, system: Any) -> tuple[int, int]:
+        m = system.meshes[0]
+        return (m.pinion_node0, m.pinion_shaft) if self.member == "pinion" else (m.gear_node0, m.gear_shaft)
+
+    def transmission_error(self, ctx: Any) -> np.ndarray | None:
+        _, shaft = self._gear(ctx.system)
+        theta = np.abs(ctx.shaft_angle[:, shaft])
+        return self.eccentricity_m * np.sin(theta + self.phase_rad)
+
+    def external_forces(self, system: Any) -> np.ndarray | None:
+        node0, _ = self._gear(system)
+        return node_xy_columns(system, node0)
+
+    def force_amplitudes(self, ctx: Any) -> np.ndarray | None:
+        node0, shaft = self._gear(ctx.system)
+        mass = float(np.asarray(ctx.system.M)[6 * node0, 6 * node0])
+        th = ctx.shaft_angle[:, shaft] + self.phase_rad
+        f = mass * self.eccentricity_m * ctx.shaft_speed[:, shaft] ** 2
+        return np.column_stack([f * np.cos(th), f * np.sin(th)])
+
+
+def tooth_share(u: np.ndarray, tooth0: int, teeth: int, contact_ratio: float) -> np.ndarray:
+    """Share of the mesh stiffness carried by one pinion tooth.
+
+    ``u`` is the pinion position in mesh cycles (``z_p theta_p / 2 pi``); tooth ``j`` (0-based)
+    engages over ``j <= u mod z_p < j + eps``. It carries half the stiffness in the double-contact
+    zones (first and last ``eps - 1`` cycles) and all of it in single contact.
+    """
+    eps = float(np.clip(contact_ratio, 1.0, 2.0))
+    s = np.mod(u - tooth0, teeth)
+    share = np.zeros_like(s)
+    engaged = s < eps
+    double = engaged & ((s < eps - 1.0) | (s >= 1.0))
+    share[engaged] = 1.0
+    share[double] = 0.5
+    return share
+
+
+@dataclass(frozen=True)
+class ToothDamage(Effect):
+    """Localised tooth damage (root crack, chipped tooth) on one pinion tooth.
+
+    The mesh stiffness is multiplied by ``1 - depth * share_i(t)`` where ``share_i`` is the part of
+    the mesh stiffness carried by tooth ``i`` (see :func:`tooth_share`).
+
+    Parameters
+    ----------
+    tooth : int
+        1-based pinion tooth; tooth 1 engages first after pinion angle 0.
+    depth : float
+        Fraction of that tooth's stiffness lost (0 = healthy, 1 = tooth missing).
+    """
+
+    tooth: int = 1
+    depth: float = 0.0
+    name: ClassVar[str] = "tooth_damage"
+    signature: ClassVar[str] = (
+        "once per pinion revolution impulse: many pinion orders, sidebands at the mesh orders"
+    )
+    specs: ClassVar[tuple[ParameterSpec, ...]] = (
+        ParameterSpec("depth", "1", 0.0, 0.9, "scalar", "fraction of the tooth's stiffness lost"),
+        ParameterSpec("tooth", "1", 1, 200, "index", "damaged pinion tooth, 1-based"),
+    )
+
+    def applicable(self, cfg: RigConfig) -> bool:
+        return bool(cfg.meshes)
+
+    def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
+        m = ctx.system.meshes[0]
+        u = m.pinion_teeth * np.abs(ctx.shaft_angle[:, m.pinion_shaft]) / (2.0 * math.pi)
+        return 1.0 - self.depth * tooth_share(
+            u, (self.tooth - 1) % m.pinion_teeth, m.pinion_teeth, m.contact_ratio
+        )
+
+
+def wear_profile(phase: np.ndarray) -> np.ndarray:
+    """Normalised wear profile error over a mesh cycle: ``|2 p - 1| - 1/2`` (zero mean)."""
+    return np.abs(2.0 * np.asarray(phase) - 1.0) - 0.5
+
+
+@dataclass(frozen=True)
+class ToothWear(Effect):
+    """Uniform tooth wear of depth ``h``: larger backlash plus a sliding-wear profile error.
+
+    Parameters
+    ----------
+    wear_depth_m : float
+        Wear depth h, m: adds h to the half backlash and ``h (|2p - 1| - 1/2)`` to the
+        transmission error over each mesh cycle.
+    """
+
+    wear_depth_m: float = 0.0
+    name: ClassVar[str] = "tooth_wear"
+    signature: ClassVar[str] = "odd mesh harmonics (1, 3, 5 ...) of the transmission error; larger backlash"
+    specs: ClassVar[tuple[ParameterSpec, ...]] = (
+        ParameterSpec("wear_depth_m", "m", 0.0, 100e-6, "amplitude", "wear depth"),
+    )
+
+    def applicable(self, cfg: RigConfig) -> bool:
+        return bool(cfg.meshes)
+
+    def transmission_error(self, ctx: Any) -> np.ndarray | None:
+        return self.wear_depth_m * wear_profile(ctx.mesh_phase)
+
+    def modify_config(self, cfg: RigConfig) -> RigConfig:
+        meshes = tuple(
+            dataclasses.replace(m, half_backlash_m=m.half_backlash_m + self.wear_depth_m) for m in cfg.meshes
+        )
+        return cfg.replace(meshes=meshes)

@@ -1,0 +1,85 @@
+"""The library as a whole: names, and every effect applicable to a rig at its neutral value."""
+
+from __future__ import annotations
+
+from gear_rotor_sim.config import RigConfig
+from gear_rotor_sim.faults.base import Effect
+from gear_rotor_sim.faults.baseline import MeshStiffnessDamping
+from gear_rotor_sim.faults.bearing import BEARING_6206, BearingDefect, BearingGeometry
+from gear_rotor_sim.faults.gear import GearEccentricity, ToothDamage, ToothWear
+from gear_rotor_sim.faults.operating import TemperatureOffset
+from gear_rotor_sim.faults.shaft import MassUnbalance, ShaftMisalignment
+
+
+def effect_name(effect: Effect) -> str:
+    """Library name of an effect instance (``pinion_eccentricity``, ``inner_race_defect``, ...)."""
+    if isinstance(effect, GearEccentricity):
+        return f"{effect.member}_eccentricity"
+    if isinstance(effect, BearingDefect):
+        return effect.effect_name
+    return effect.name
+
+
+LIBRARY_NAMES: tuple[str, ...] = (
+    "pinion_eccentricity",
+    "gear_eccentricity",
+    "mass_unbalance",
+    "shaft_misalignment",
+    "tooth_damage",
+    "tooth_wear",
+    "temperature_offset",
+    "mesh_stiffness_damping",
+    "outer_race_defect",
+    "inner_race_defect",
+    "ball_defect",
+)
+
+
+def candidate_effects(
+    cfg: RigConfig,
+    bearing_geometry: BearingGeometry = BEARING_6206,
+    bearings: tuple[int, ...] | None = None,
+    unbalance_nodes: tuple[int, ...] | None = None,
+    misalignment_nodes: tuple[int, ...] | None = None,
+    names: tuple[str, ...] | None = None,
+) -> list[Effect]:
+    """All library effects applicable to a rig, each at its neutral value with its location fixed.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The rig; gear effects are offered only when it has a mesh.
+    bearing_geometry : BearingGeometry
+        Geometry used for the bearing-defect frequencies.
+    bearings : tuple of int, optional
+        1-based bearings considered for defects (default all).
+    unbalance_nodes, misalignment_nodes : tuple of int, optional
+        1-based nodes; default the gear/disc nodes (unbalance) and the drive node (misalignment).
+    names : tuple of str, optional
+        Restrict to these library names.
+    """
+    out: list[Effect] = []
+    has_mesh = bool(cfg.meshes)
+    if unbalance_nodes is None:
+        nodes = [g.node0 + 1 for g in cfg.gears] + [d.node0 + 1 for d in cfg.discs]
+        if not nodes:
+            nodes = [cfg.n_nodes // 2 + 1]
+        unbalance_nodes = tuple(dict.fromkeys(nodes))
+    if misalignment_nodes is None:
+        misalignment_nodes = (cfg.drive.node0 + 1,)
+    if bearings is None:
+        bearings = tuple(range(1, len(cfg.bearings) + 1))
+    if has_mesh:
+        out += [GearEccentricity(member="pinion"), GearEccentricity(member="gear")]
+    out += [MassUnbalance(node=n) for n in unbalance_nodes]
+    out += [ShaftMisalignment(node=n) for n in misalignment_nodes]
+    if has_mesh:
+        out += [ToothDamage(), ToothWear()]
+    out.append(TemperatureOffset())
+    if has_mesh:
+        out.append(MeshStiffnessDamping())
+    for kind in ("outer", "inner", "ball"):
+        out += [BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry) for b in bearings]
+    if names is not None:
+        out = [e for e in out if effect_name(e) in names]
+    return out
