@@ -26,6 +26,21 @@ from gear_rotor_sim.config import RigConfig
 from gear_rotor_sim.faults.base import Effect, ParameterSpec, node_xy_columns
 
 
+def on_mesh(ctx: Any, mesh: int, values: np.ndarray, neutral: float) -> np.ndarray:
+    """Per-mesh array (n, n_meshes): ``values`` on 1-based ``mesh``, ``neutral`` on the others."""
+    nm = len(ctx.system.meshes)
+    if nm == 1:
+        return values
+    out = np.full((values.shape[0], nm), neutral)
+    out[:, mesh - 1] = values
+    return out
+
+
+def check_mesh(cfg: RigConfig, mesh: int) -> bool:
+    """Whether the rig has the 1-based ``mesh``."""
+    return 1 <= mesh <= len(cfg.meshes)
+
+
 @dataclass(frozen=True)
 class GearEccentricity(Effect):
     """Geometric eccentricity (run-out) of the pinion or the gear.
@@ -41,11 +56,14 @@ class GearEccentricity(Effect):
         Run-out e, m.
     phase_rad : float
         Angular position of the high point at shaft angle 0, rad.
+    mesh : int
+        1-based mesh (order of ``meshes:`` in the rig).
     """
 
     member: str = "pinion"
     eccentricity_m: float = 0.0
     phase_rad: float = 0.0
+    mesh: int = 1
     name: ClassVar[str] = "eccentricity"
     signature: ClassVar[str] = (
         "shaft order 1 of the eccentric gear; sidebands +-1 order around the mesh orders"
@@ -57,19 +75,20 @@ class GearEccentricity(Effect):
 
     @property
     def label(self) -> str:
-        return f"{self.member}_eccentricity"
+        suffix = "" if self.mesh == 1 else f"@mesh{self.mesh}"
+        return f"{self.member}_eccentricity{suffix}"
 
     def applicable(self, cfg: RigConfig) -> bool:
-        return bool(cfg.meshes)
+        return check_mesh(cfg, self.mesh)
 
     def _gear(self, system: Any) -> tuple[int, int]:
-        m = system.meshes[0]
+        m = system.meshes[self.mesh - 1]
         return (m.pinion_node0, m.pinion_shaft) if self.member == "pinion" else (m.gear_node0, m.gear_shaft)
 
     def transmission_error(self, ctx: Any) -> np.ndarray | None:
         _, shaft = self._gear(ctx.system)
         theta = np.abs(ctx.shaft_angle[:, shaft])
-        return self.eccentricity_m * np.sin(theta + self.phase_rad)
+        return on_mesh(ctx, self.mesh, self.eccentricity_m * np.sin(theta + self.phase_rad), 0.0)
 
     def external_forces(self, system: Any) -> np.ndarray | None:
         node0, _ = self._gear(system)
@@ -102,7 +121,7 @@ def tooth_share(u: np.ndarray, tooth0: int, teeth: int, contact_ratio: float) ->
 
 @dataclass(frozen=True)
 class ToothDamage(Effect):
-    """Localised tooth damage (root crack, chipped tooth) on one pinion tooth.
+    """Localised tooth damage (root crack, chipped tooth) on one tooth of the pinion or the gear.
 
     The mesh stiffness is multiplied by ``1 - depth * share_i(t)`` where ``share_i`` is the part of
     the mesh stiffness carried by tooth ``i`` (see :func:`tooth_share`).
@@ -110,31 +129,53 @@ class ToothDamage(Effect):
     Parameters
     ----------
     tooth : int
-        1-based pinion tooth; tooth 1 engages first after pinion angle 0.
+        1-based tooth of ``wheel``. Mesh cycles are counted from time 0 (``u = z_p theta_p / 2 pi``,
+        the same count on both wheels); tooth ``i`` of a wheel with ``z`` teeth enters contact at
+        the cycles ``u = i - 1 (mod z)``, so pinion tooth 1 and gear tooth 1 enter together at 0.
     depth : float
         Fraction of that tooth's stiffness lost (0 = healthy, 1 = tooth missing).
+    wheel : str
+        ``"pinion"`` or ``"gear"`` of the mesh.
+    mesh : int
+        1-based mesh (order of ``meshes:`` in the rig).
     """
 
     tooth: int = 1
     depth: float = 0.0
+    wheel: str = "pinion"
+    mesh: int = 1
     name: ClassVar[str] = "tooth_damage"
     signature: ClassVar[str] = (
         "once per pinion revolution impulse: many pinion orders, sidebands at the mesh orders"
     )
     specs: ClassVar[tuple[ParameterSpec, ...]] = (
         ParameterSpec("depth", "1", 0.0, 0.9, "scalar", "fraction of the tooth's stiffness lost"),
-        ParameterSpec("tooth", "1", 1, 200, "index", "damaged pinion tooth, 1-based"),
+        ParameterSpec("tooth", "1", 1, 200, "index", "damaged tooth of the wheel, 1-based"),
     )
 
+    def __post_init__(self) -> None:
+        if self.wheel not in ("pinion", "gear"):
+            raise ValueError(f"wheel: {self.wheel!r} is not one of ['pinion', 'gear']")
+
+    @property
+    def label(self) -> str:
+        suffix = "" if self.mesh == 1 else f"@mesh{self.mesh}"
+        return f"tooth_damage@{self.wheel}{suffix}"
+
     def applicable(self, cfg: RigConfig) -> bool:
-        return bool(cfg.meshes)
+        return check_mesh(cfg, self.mesh)
+
+    def teeth(self, system: Any) -> int:
+        """Number of teeth of the damaged wheel."""
+        m = system.meshes[self.mesh - 1]
+        return int(m.pinion_teeth if self.wheel == "pinion" else m.gear_teeth)
 
     def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
-        m = ctx.system.meshes[0]
+        m = ctx.system.meshes[self.mesh - 1]
         u = m.pinion_teeth * np.abs(ctx.shaft_angle[:, m.pinion_shaft]) / (2.0 * math.pi)
-        return 1.0 - self.depth * tooth_share(
-            u, (self.tooth - 1) % m.pinion_teeth, m.pinion_teeth, m.contact_ratio
-        )
+        z = self.teeth(ctx.system)
+        share = tooth_share(u, (self.tooth - 1) % z, z, m.contact_ratio)
+        return on_mesh(ctx, self.mesh, 1.0 - self.depth * share, 1.0)
 
 
 def wear_profile(phase: np.ndarray) -> np.ndarray:
@@ -151,23 +192,34 @@ class ToothWear(Effect):
     wear_depth_m : float
         Wear depth h, m: adds h to the half backlash and ``h (|2p - 1| - 1/2)`` to the
         transmission error over each mesh cycle.
+    mesh : int
+        1-based mesh (order of ``meshes:`` in the rig).
     """
 
     wear_depth_m: float = 0.0
+    mesh: int = 1
     name: ClassVar[str] = "tooth_wear"
     signature: ClassVar[str] = "odd mesh harmonics (1, 3, 5 ...) of the transmission error; larger backlash"
     specs: ClassVar[tuple[ParameterSpec, ...]] = (
         ParameterSpec("wear_depth_m", "m", 0.0, 100e-6, "amplitude", "wear depth"),
     )
 
+    @property
+    def label(self) -> str:
+        return "tooth_wear" if self.mesh == 1 else f"tooth_wear@mesh{self.mesh}"
+
     def applicable(self, cfg: RigConfig) -> bool:
-        return bool(cfg.meshes)
+        return check_mesh(cfg, self.mesh)
 
     def transmission_error(self, ctx: Any) -> np.ndarray | None:
-        return self.wear_depth_m * wear_profile(ctx.mesh_phase)
+        phase = ctx.mesh_phases[:, self.mesh - 1] if ctx.mesh_phases is not None else ctx.mesh_phase
+        return on_mesh(ctx, self.mesh, self.wear_depth_m * wear_profile(phase), 0.0)
 
     def modify_config(self, cfg: RigConfig) -> RigConfig:
         meshes = tuple(
-            dataclasses.replace(m, half_backlash_m=m.half_backlash_m + self.wear_depth_m) for m in cfg.meshes
+            dataclasses.replace(m, half_backlash_m=m.half_backlash_m + self.wear_depth_m)
+            if i == self.mesh - 1
+            else m
+            for i, m in enumerate(cfg.meshes)
         )
         return cfg.replace(meshes=meshes)

@@ -742,7 +742,9 @@ class StepContext:
     """What effects see, on the step grid of one chunk (times of the new steps).
 
     ``shaft_angle`` and ``shaft_speed`` are (n, n_shafts) in rad and rad/s (signed, per shaft);
-    ``mesh_phase`` (n,) is the phase of the first mesh in [0, 1).
+    ``mesh_phases`` (n, n_meshes) are the mesh phases in [0, 1) and ``mesh_phase`` (n,) the first
+    mesh's. Effect terms of the mesh (stiffness factor, transmission error) are returned as (n,)
+    (the same for every mesh) or (n, n_meshes).
     """
 
     t: np.ndarray
@@ -750,6 +752,7 @@ class StepContext:
     shaft_speed: np.ndarray
     mesh_phase: np.ndarray
     system: AssembledSystem
+    mesh_phases: np.ndarray | None = None
 
 
 def mesh_phases(system: AssembledSystem, angle: np.ndarray) -> np.ndarray:
@@ -779,6 +782,7 @@ def make_context(system: AssembledSystem, t: np.ndarray, angle: np.ndarray, spee
         speed[:, None] * ratios[None, :],
         ph[:, 0] if ph.shape[1] else np.zeros(t.size),
         system,
+        ph,
     )
 
 
