@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import functools
+from typing import Any
+
 from gear_rotor_sim.config import RigConfig
 from gear_rotor_sim.faults.base import Effect
 from gear_rotor_sim.faults.baseline import MeshStiffnessDamping
@@ -83,3 +86,20 @@ def candidate_effects(
     if names is not None:
         out = [e for e in out if effect_name(e) in names]
     return out
+
+
+#: Constructors of the injectable effects by library name: ``EFFECT_TYPES[name](**fields)``, where the
+#: fields are the effect's location keys (``mesh``, ``wheel``, ``tooth``, ``node``, ``bearing``) and
+#: parameters (``depth``, ``eccentricity_m``, ...). A new library effect registers here.
+EFFECT_TYPES: dict[str, Any] = {
+    "pinion_eccentricity": functools.partial(GearEccentricity, member="pinion"),
+    "gear_eccentricity": functools.partial(GearEccentricity, member="gear"),
+    "mass_unbalance": MassUnbalance,
+    "shaft_misalignment": ShaftMisalignment,
+    "tooth_damage": ToothDamage,
+    "tooth_wear": ToothWear,
+    "temperature_offset": TemperatureOffset,
+    "outer_race_defect": functools.partial(BearingDefect, kind="outer"),
+    "inner_race_defect": functools.partial(BearingDefect, kind="inner"),
+    "ball_defect": functools.partial(BearingDefect, kind="ball"),
+}
