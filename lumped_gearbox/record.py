@@ -87,7 +87,8 @@ def make_record(
         Fault objects or CLI strings (``"tooth_damage:wheel=gear,tooth=5,depth=0.3"``).
     noise : (float, float)
         Range of the white-noise standard deviation per channel, as a fraction of the channel's RMS
-        about its mean; each channel draws its own fraction.
+        about its mean (at least a tenth of the largest RMS among the channels of the same
+        quantity); each channel draws its own fraction.
     gain_error : float
         Each channel is multiplied by a gain drawn uniformly in ``1 +- gain_error``.
     seed : int
@@ -105,7 +106,11 @@ def make_record(
         x = clean[ch]
         frac = float(rng.uniform(*noise))
         g = float(rng.uniform(1.0 - gain_error, 1.0 + gain_error))
-        sigma = frac * float(np.std(x))
+        # noise floor: a tenth of the largest RMS among the channels of the same quantity, so that a
+        # channel without dynamic content (the axial force of an aligned gearbox) is not noise-free
+        same = [c for c in CHANNELS if c[:-1] == ch[:-1]]
+        floor = 0.1 * max(float(np.std(clean[c])) for c in same)
+        sigma = frac * max(float(np.std(x)), floor)
         data[ch] = g * x + rng.normal(0.0, sigma, x.size)
         nf[ch], gains[ch] = frac, g
     fm = clean["mesh_force"]
