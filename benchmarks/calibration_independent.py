@@ -44,6 +44,9 @@ FAULTS = [
     "gear_misalignment:member=gear,angle_rad=1e-3",
     "tooth_wear:wear_depth_m=20e-6",
     "temperature_offset:offset_c=60",
+    "outer_race_defect:force_n=300",
+    "inner_race_defect:force_n=300",
+    "ball_defect:force_n=300",
 ]
 HEALTHY = [
     (2000.0, 25.0),

@@ -163,3 +163,19 @@ def test_bad_fault_names_field_and_range():
         parse_fault("crack:depth=0.1")
     with pytest.raises(ValueError, match="temperature_c"):
         build(Gearbox(), 3000.0, 400.0)
+
+
+def test_outer_race_defect_envelope_line_at_bpfo():
+    """6206 (9 balls, d = 9.525 mm, D = 46 mm): BPFO = n/2 (1 - d/D) f_shaft = 3.568 x 50 Hz."""
+    healthy = run(build(Gearbox(), 3000.0, 25.0), 1.0)
+    faulty = run(build(Gearbox(), 3000.0, 25.0, [parse_fault("outer_race_defect:force_n=300")]), 1.0)
+    pulses = faulty["bearing2_fy"] - healthy["bearing2_fy"]
+    assert np.allclose(faulty["dte"], healthy["dte"], rtol=0, atol=1e-9 * np.abs(healthy["dte"]).max())
+    env = np.abs(pulses)
+    spec = np.abs(np.fft.rfft(env - env.mean()))
+    f = np.fft.rfftfreq(env.size, 1 / 20000.0)
+    band = (f > 20) & (f < 1000)
+    bpfo = 9 / 2 * (1 - 9.525 / 46.0) * 50.0
+    assert abs(f[band][np.argmax(spec[band])] - bpfo) <= 2 * f[1]
+    # peak close to force_n times the Hertz load factor at the defect (90 deg vs load at 110 deg)
+    assert 0.5 * 300 < np.max(np.abs(pulses)) <= 300 * math.cos(math.radians(20)) ** 1.5 * (1 + 1e-9)
