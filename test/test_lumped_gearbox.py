@@ -179,3 +179,24 @@ def test_outer_race_defect_envelope_line_at_bpfo():
     assert abs(f[band][np.argmax(spec[band])] - bpfo) <= 2 * f[1]
     # peak close to force_n times the Hertz load factor at the defect (90 deg vs load at 110 deg)
     assert 0.5 * 300 < np.max(np.abs(pulses)) <= 300 * math.cos(math.radians(20)) ** 1.5 * (1 + 1e-9)
+
+
+def test_cli_record_and_bad_fault(tmp_path, capsys):
+    from lumped_gearbox.__main__ import main
+
+    out = tmp_path / "out" / "gear_tooth5.csv"
+    args = [
+        "record",
+        "--speed-rpm",
+        "3000",
+        "--temperature-c",
+        "25",
+        "--duration-s",
+        "0.1",
+        "--out",
+        str(out),
+    ]
+    assert main([*args, "--fault", "tooth_damage:wheel=gear,tooth=5,depth=0.3"]) == 0
+    assert out.exists() and out.with_suffix(".yaml").exists() and out.with_suffix(".truth.json").exists()
+    assert main([*args, "--fault", "tooth_damage:wheel=gear,tooth=50,depth=0.3"]) == 2
+    assert "tooth_damage.tooth: 50 outside 1..49 for the gear" in capsys.readouterr().err
