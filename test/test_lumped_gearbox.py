@@ -200,3 +200,24 @@ def test_cli_record_and_bad_fault(tmp_path, capsys):
     assert out.exists() and out.with_suffix(".yaml").exists() and out.with_suffix(".truth.json").exists()
     assert main([*args, "--fault", "tooth_damage:wheel=gear,tooth=50,depth=0.3"]) == 2
     assert "tooth_damage.tooth: 50 outside 1..49 for the gear" in capsys.readouterr().err
+
+
+def test_housing_path_matches_sdof_frequency_response(tmp_path):
+    """Steady sine force: |a/F| = w^2 / |k - m w^2 + i c w| of the housing mode (analytic)."""
+    from gear_rotor_sim.calibration.measurement import load_measurement
+    from lumped_gearbox import housing as hs
+
+    fs = 20000.0
+    t = np.arange(40000) / fs
+    m, fn, zeta = hs.HOUSING_MASS_KG, hs.HOUSING_FREQUENCY_HZ, hs.HOUSING_DAMPING_RATIO
+    k = m * (2 * math.pi * fn) ** 2
+    c = 2 * zeta * math.sqrt(k * m)
+    for f in (500.0, 2600.0, 6000.0):
+        w = 2 * math.pi * f
+        acc = hs.housing_acceleration(100.0 * np.sin(w * t), fs)[20000:]  # transient decayed
+        expected = 100.0 * w**2 / abs(k - m * w**2 + 1j * c * w)
+        amp = math.sqrt(2.0) * np.std(acc)
+        assert abs(amp - expected) < 0.01 * expected, (f, amp, expected)
+    rec = make_record(3000.0, 25.0, duration_s=0.1, housing=True)
+    meas = load_measurement(write_record(tmp_path / "h.csv", rec))
+    assert "bearing2_housing_ay" in meas.model_channels
