@@ -221,3 +221,27 @@ def test_housing_path_matches_sdof_frequency_response(tmp_path):
     rec = make_record(3000.0, 25.0, duration_s=0.1, housing=True)
     meas = load_measurement(write_record(tmp_path / "h.csv", rec))
     assert "bearing2_housing_ay" in meas.model_channels
+
+
+def test_eccentricity_is_followed_kinematically_at_shaft_rate():
+    """Far below every resonance the train follows a run-out rigidly: DTE 1x line = e (quasi-static)."""
+    e = 15e-6
+    r = run(
+        build(Gearbox(), 600.0, 25.0, [parse_fault(f"pinion_eccentricity:eccentricity_m={e}")], ste=False),
+        2.0,
+    )
+    x = r["dte"] - np.mean(r["dte"])
+    n = x.size
+    t = np.arange(n) / 20000.0
+    amp = 2.0 * abs(np.sum(x * np.exp(-2j * np.pi * 10.0 * t))) / n  # 600 rpm = 10 Hz, 20 whole periods
+    assert abs(amp - e) < 0.03 * e, amp
+
+
+def test_thermal_backlash_unchanged_when_housing_expands_like_the_gears():
+    """Uniform expansion of gears and housing is a similarity: the backlash just scales by 1 + a dT."""
+    from lumped_gearbox import thermal_half_backlash
+
+    gb = Gearbox(housing_expansion_per_c=1.17e-5)
+    assert thermal_half_backlash(gb, 225.0) == pytest.approx(35e-6 * (1 + 1.17e-5 * 200), rel=1e-12)
+    assert thermal_half_backlash(Gearbox(), 25.0) == pytest.approx(35e-6, rel=1e-12)
+    assert thermal_half_backlash(Gearbox(), 225.0) < 35e-6  # steel gears in a cast-iron housing close up
