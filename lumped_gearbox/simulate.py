@@ -86,8 +86,8 @@ def build(
         gb = gb.replace(k_radial=gb.k_radial * bscale, k_axial=gb.k_axial * bscale)
     sp = springs(gb, temp)
     m1, j1, m2, j2 = gb.masses()
-    mb1, _ = gb._disc(gb.pitch_radii[0])
-    mb2, _ = gb._disc(gb.pitch_radii[1])
+    mb1, _ = gb.disc(gb.pitch_radii[0])
+    mb2, _ = gb.disc(gb.pitch_radii[1])
     rb1, rb2 = gb.base_radii
     eps = gb.contact_ratio
     w1 = speed_rpm * 2.0 * math.pi / 60.0
