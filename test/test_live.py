@@ -13,6 +13,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +26,8 @@ PINION_TEETH = 29
 RATE_HZ = 20000.0
 STREAM_TOPICS = ("/gear_rotor/dte", "/gear_rotor/bearing_forces", "/gear_rotor/displacements")
 EXTRA_TOPICS = ("/gear_rotor/indicators", "/gear_rotor/dte_spectrum", "/gear_rotor/status")
+SETPOINT_TOPICS = ("/gear_rotor/setpoint/speed_rpm", "/gear_rotor/setpoint/temperature_c")
+LAYOUT = Path(__file__).resolve().parent.parent / "config" / "foxglove_layout.json"
 
 
 def _mesh_line_hz(dte: np.ndarray, rate_hz: float, min_hz: float = 200.0) -> float:
@@ -68,6 +71,36 @@ def server():
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err[-2000:]  # SIGTERM ends the server cleanly
     assert "setpoints accepted 1, refused 5" in out, out
+
+
+def _advertised_fields(channel: dict) -> set[str]:
+    """Top-level field names of an advertised channel: ros2msg text or JSON schema properties."""
+    if channel["schemaEncoding"] == "jsonschema":
+        return set(json.loads(channel["schema"])["properties"])
+    main = channel["schema"].split("=" * 80)[0]
+    return {ln.split()[1] for ln in main.splitlines() if ln.strip() and not ln.startswith("#")}
+
+
+def _check_layout(topics: dict[str, dict]) -> None:
+    """config/foxglove_layout.json opens the streams by name: every message path's topic is
+    advertised (or is a setpoint topic) and its first field exists in the advertised schema."""
+    layout = json.loads(LAYOUT.read_text())
+    paths = []
+    for panel_id, cfg in layout["configById"].items():
+        paths += [p["value"] for p in cfg.get("paths", [])]
+        paths += [cfg[k]["value"] for k in ("xAxisPath",) if k in cfg]
+        if "topicPath" in cfg:
+            paths.append(cfg["topicPath"])
+        if panel_id.startswith("Publish!"):
+            assert cfg["topicName"] in SETPOINT_TOPICS, cfg["topicName"]
+    assert len(paths) >= 8
+    for path in paths:
+        topic = next((t for t in sorted(topics, key=len, reverse=True) if path.startswith(t)), None)
+        assert topic is not None, f"layout path {path!r}: topic not advertised"
+        rest = path[len(topic) :]
+        if rest:
+            field = rest.lstrip(".").split(".")[0].split("[")[0]
+            assert field in _advertised_fields(topics[topic]), f"layout path {path!r}: no field {field!r}"
 
 
 def _collect(client: FoxgloveClient, seconds: float, state: dict, timeout_s: float = 90.0) -> np.ndarray:
@@ -126,6 +159,7 @@ def test_serve_streams_setpoints_and_refusals(server):
             client.topics()["/gear_rotor/indicators"]["schemaName"]
             == "gear_rotor_msgs/msg/ConditionIndicators"
         )
+        _check_layout(client.topics())
         client.subscribe(["/gear_rotor/dte", "/gear_rotor/status", "/gear_rotor/indicators"])
         state: dict = {"want_speed": 3000.0}
         dte = _collect(client, 1.0, state)
