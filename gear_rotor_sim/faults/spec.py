@@ -158,6 +158,11 @@ class FaultSpec:
 # -------------------------------------------------------------------------------------- parsing
 def _number(value: Any, path: str, lo: float, hi: float, lo_open: bool = False) -> float:
     rng = f"{lo:g} {'<' if lo_open else '<='} value <= {hi:g}"
+    if isinstance(value, str):  # YAML 1.1 reads 1e-5 (no dot) as a string
+        try:
+            value = float(value)
+        except ValueError:
+            pass
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise FaultError(f"{path}: {value!r} is not a number (allowed {rng})")
     v = float(value)
