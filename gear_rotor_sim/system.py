@@ -6,7 +6,9 @@
   nodes 1-9, output shaft 10-18). Global DOF = 6 node0 + dof, dof order x, y, z, theta_x, theta_y,
   theta_z (Eqs 19, 35).
 * M, K: Timoshenko shaft elements (Sec 3.3) at the uniform steady temperature (E*, G* of Eqs 11-12),
-  rigid discs at gear nodes (Sec 3.1, Eqs 19-20), bearings (Eq 37). No mesh terms: meshes are
+  rigid discs at gear nodes (Sec 3.1, Eqs 19-20), bearings (Eq 37). A mesh with
+  ``gear_mass_in_mesh_matrix`` (the as-published configuration) adds the gear-pair mass matrix of
+  Eq 32 at its two gear nodes as well, so those gears' mass and inertia count twice. No mesh terms: meshes are
   ``MeshCoupling`` objects (Eqs 21-33) built by ``elements.mesh.build_mesh_coupling``.
 * C: Rayleigh shaft damping ``a M_shaft + b K_shaft`` (not in the paper; configured) + bearing damping.
 * G: per rad/s of the input shaft; each shaft's (and its discs') gyroscopic matrix is scaled by the
@@ -185,6 +187,19 @@ class GearRotorSystem:
             blk = np.ix_(idx, idx)
             M[blk] += disc.mass_matrix()  # Eq 20
             G[blk] += ratios[shaft_of_node[node0]] * disc.gyroscopic_matrix()
+
+        # As published (meshes[].gear_mass_in_mesh_matrix): the gear-pair matrix M^g of Eq 32 added
+        # at the two gear nodes on top of Eq 20, so each gear's mass and inertia count twice. Only M
+        # changes: the mesh (Eqs 21-33, c_m from the gears' own inertias) is the default one.
+        pair_mass: dict[str, int] = {}
+        for m in cfg.meshes:
+            if m.gear_mass_in_mesh_matrix:
+                for name in (m.pinion, m.gear):
+                    pair_mass[name] = pair_mass.get(name, 0) + 1
+        for name, count in pair_mass.items():
+            g = cfg.gear(name)
+            idx = np.arange(6 * g.node0, 6 * g.node0 + 6)
+            M[np.ix_(idx, idx)] += count * gear_disc(cfg, g).mass_matrix()  # Eq 32
 
         sites = []
         for number, b in enumerate(cfg.bearings, start=1):

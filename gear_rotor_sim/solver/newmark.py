@@ -1496,6 +1496,11 @@ class SimulationDiverged(RuntimeError):
         self.time_s = time_s
         self.speed_rpm = speed_rpm
         self.temperature_c = temperature_c
+        self.reason = reason
+
+    def __reduce__(self) -> tuple[type, tuple[float, float, float, str]]:
+        """Rebuild from the constructor arguments (picklable across a process pool)."""
+        return (type(self), (self.time_s, self.speed_rpm, self.temperature_c, self.reason))
 
 
 def check_steps_per_mesh(steps_per_mesh: int) -> None:
