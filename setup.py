@@ -9,7 +9,9 @@ package_name = "gear_rotor_sim"
 setup(
     name=package_name,
     version="0.1.0",
-    packages=find_packages(include=["gear_rotor_sim", "gear_rotor_sim.*"]),
+    packages=find_packages(
+        include=["gear_rotor_sim", "gear_rotor_sim.*", "lumped_gearbox", "lumped_gearbox.*"]
+    ),
     package_data={"gear_rotor_sim": ["py.typed"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),

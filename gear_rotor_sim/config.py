@@ -28,7 +28,11 @@ Schema (``config/paper_sun2021.yaml`` is the reference example; ``*`` = optional
     meshes*: [{pinion, gear, module_mm, pressure_angle_deg, face_width_mm, half_backlash_um,
               transmission_error_amplitude_um, friction_coefficient, damping_ratio,
               addendum_coefficient* (1.0), clearance_coefficient* (0.25),
-              transmission_error_phase_rad* (0.0), thermal_backlash* (true)}]
+              transmission_error_phase_rad* (0.0), thermal_backlash* (true),
+              gear_mass_in_mesh_matrix* (false)}]   true: the gears' mass and inertia are
+                                            assembled twice, in Eq 20 and in the gear-pair
+                                            matrix of Eq 32 (the literal reading of Sec 3.5;
+                                            config/paper_sun2021_as_published.yaml)
     drive: {node}                           theta_z of this node follows the commanded rotation
     load*: {node, torque_nm}                resisting torque on the load node (default none)
 
@@ -147,6 +151,7 @@ class MeshConfig:
     thermal_backlash: bool
     pinion_bore_diameter_m: float | None = None  # copied from the gears (for the fillet foundation)
     gear_bore_diameter_m: float | None = None
+    gear_mass_in_mesh_matrix: bool = False  # Eq 32's M^g added on top of Eq 20's M^d (as published)
 
 
 @dataclass(frozen=True)
@@ -366,6 +371,7 @@ _MESH_OPTIONAL = {
     "clearance_coefficient",
     "transmission_error_phase_rad",
     "thermal_backlash",
+    "gear_mass_in_mesh_matrix",
 }
 PRESSURE_ANGLE_RANGE_DEG = (10.0, 35.0)  # exclusive
 ADDENDUM_RANGE = (0.5, 1.5)  # inclusive
@@ -483,6 +489,9 @@ def _parse_mesh(k: int, d: Any, gear_raw: Mapping[str, tuple[int, Mapping[str, A
     tb = d.get("thermal_backlash", True)
     if not isinstance(tb, bool):
         raise ConfigError(f"{path}.thermal_backlash: {tb!r} must be true or false")
+    gm = d.get("gear_mass_in_mesh_matrix", False)
+    if not isinstance(gm, bool):
+        raise ConfigError(f"{path}.gear_mass_in_mesh_matrix: {gm!r} must be true or false")
     lo, hi = PRESSURE_ANGLE_RANGE_DEG
     return MeshConfig(
         pinion=names["pinion"],
@@ -519,6 +528,7 @@ def _parse_mesh(k: int, d: Any, gear_raw: Mapping[str, tuple[int, Mapping[str, A
         ),
         damping_ratio=_number(d["damping_ratio"], f"{path}.damping_ratio", ge=0.0),
         thermal_backlash=tb,
+        gear_mass_in_mesh_matrix=gm,
     )
 
 

@@ -67,17 +67,23 @@ class Case:
         ``damping_ratio``, ``half_backlash_m``, ``transmission_error_amplitude_m``), shaft
         Rayleigh damping (``mass_per_s``, ``stiffness_s``) and ``mesh_stiffness_scale`` (multiplies
         the potential-energy mesh stiffness at every phase, see :func:`scale_mesh_stiffness`).
+    config : str
+        Named paper configuration (:data:`gear_rotor_sim.examples.PAPER_CONFIGS`): ``"paper_sun2021"``
+        (default) or ``"paper_sun2021_as_published"``.
     """
 
     temperature_c: float
     bearing_type: str = "A#"
     thermal_backlash: bool = True
     overrides: tuple[tuple[str, float], ...] = ()
+    config: str = "paper_sun2021"
 
     def label(self) -> str:
         """Short human-readable name, e.g. ``"225 C, A#, thermal backlash"``."""
         bl = "thermal backlash" if self.thermal_backlash else "fixed backlash"
         extra = "".join(f", {k}={v:g}" for k, v in self.overrides)
+        if self.config != "paper_sun2021":
+            extra += f", {self.config}"
         return f"{self.temperature_c:g} C, {self.bearing_type}, {bl}{extra}"
 
     def to_json(self) -> str:
@@ -91,6 +97,7 @@ class Case:
             str(d["bearing_type"]),
             bool(d["thermal_backlash"]),
             tuple((str(k), float(v)) for k, v in d["overrides"]),
+            str(d.get("config", "paper_sun2021")),
         )
 
 
@@ -98,7 +105,9 @@ def build_config(case: Case) -> Any:
     """The paper gearbox configuration of ``case`` (a :class:`gear_rotor_sim.config.RigConfig`)."""
     from gear_rotor_sim.examples import paper_gearbox
 
-    cfg = paper_gearbox(bearing_type=case.bearing_type, thermal_backlash=case.thermal_backlash)
+    cfg = paper_gearbox(
+        bearing_type=case.bearing_type, thermal_backlash=case.thermal_backlash, config=case.config
+    )
     mesh_changes = {k: v for k, v in case.overrides if k in MESH_OVERRIDES}
     ray_changes = {k: v for k, v in case.overrides if k in RAYLEIGH_OVERRIDES}
     known = MESH_OVERRIDES + RAYLEIGH_OVERRIDES + SYSTEM_OVERRIDES

@@ -21,6 +21,7 @@ Results are saved to ``.npz`` (:meth:`SweepResult.save`), so figures redraw with
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 import json
@@ -124,11 +125,12 @@ class SweepResult:
         bearing_type: str = "A#",
         thermal_backlash: bool = True,
         overrides: tuple[tuple[str, float], ...] = (),
+        config: str | None = None,
     ) -> int:
-        """Position of a case in :attr:`cases`; KeyError listing the cases otherwise."""
+        """Position of a case in :attr:`cases` (any ``config`` when None); KeyError listing them otherwise."""
         want = Case(float(temperature_c), bearing_type, thermal_backlash, tuple(overrides))
         for i, c in enumerate(self.cases):
-            if c == want:
+            if c == dataclasses.replace(want, config=c.config if config is None else config):
                 return i
         raise KeyError(f"case {want.label()} not in sweep; have {[c.label() for c in self.cases]}")
 

@@ -1,0 +1,172 @@
+"""Measurement-like records: sensor noise, gain errors, and the CSV + YAML sidecar + truth files.
+
+The files follow the measured-data contract of ``docs/calibration.md`` (issue 6): ``<stem>.csv``
+(``time_s`` then one column per channel), ``<stem>.yaml`` (rate, declared operating point, gearbox,
+channels with quantity/location/unit) and, for benchmarks, ``<stem>.truth.json`` (the faults that
+were injected, the actual temperature, noise levels and gains).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from lumped_gearbox.faults import Fault, fault_truth, parse_fault
+from lumped_gearbox.housing import housing_acceleration
+from lumped_gearbox.params import Gearbox
+from lumped_gearbox.simulate import CHANNELS, build, run
+
+SIDECAR_CHANNELS = [
+    {"column": "dte", "quantity": "dynamic_transmission_error", "unit": "m"},
+    {"column": "bearing2_fx", "quantity": "bearing_force", "bearing": 2, "direction": "x", "unit": "N"},
+    {"column": "bearing2_fy", "quantity": "bearing_force", "bearing": 2, "direction": "y", "unit": "N"},
+    {"column": "bearing2_fz", "quantity": "bearing_force", "bearing": 2, "direction": "z", "unit": "N"},
+    {"column": "node5_ax", "quantity": "acceleration", "node": 5, "direction": "x", "unit": "m/s^2"},
+    {"column": "node5_ay", "quantity": "acceleration", "node": 5, "direction": "y", "unit": "m/s^2"},
+]
+HOUSING_CHANNELS = ("bearing2_housing_ax", "bearing2_housing_ay")
+SIDECAR_HOUSING = [
+    {"column": c, "quantity": "housing_acceleration", "bearing": 2, "direction": c[-1], "unit": "m/s^2"}
+    for c in HOUSING_CHANNELS
+]
+
+#: the two documented operating points (docs/independent_data.md): teeth in contact / rattling
+CONTACT_RPM = 3000.0
+RATTLE_RPM = 8000.0
+
+
+@dataclass
+class Record:
+    """A noisy record and its ground truth."""
+
+    time_s: np.ndarray
+    data: dict[str, np.ndarray]
+    speed_rpm: float
+    temperature_c: float  # declared
+    faults: list[Fault]
+    noise_fraction: dict[str, float]
+    gain: dict[str, float]
+    seed: int
+    clean: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
+    actual_temperature_c: float = 0.0
+    contact_loss_fraction: float = 0.0
+
+    def truth(self) -> dict[str, Any]:
+        return {
+            "generator": "lumped_gearbox",
+            "speed_rpm": self.speed_rpm,
+            "declared_temperature_c": self.temperature_c,
+            "actual_temperature_c": self.actual_temperature_c,
+            "faults": [fault_truth(f) for f in self.faults],
+            "noise_fraction": self.noise_fraction,
+            "gain": self.gain,
+            "seed": self.seed,
+            "contact_loss_fraction": self.contact_loss_fraction,
+        }
+
+
+def make_record(
+    speed_rpm: float = CONTACT_RPM,
+    temperature_c: float = 25.0,
+    faults: Sequence[Fault | str] = (),
+    duration_s: float = 2.0,
+    sample_rate_hz: float = 20000.0,
+    noise: tuple[float, float] = (0.02, 0.05),
+    gain_error: float = 0.03,
+    seed: int = 0,
+    gearbox: Gearbox | None = None,
+    housing: bool = False,
+) -> Record:
+    """Simulate the lumped gearbox and add sensor noise and gain errors.
+
+    Parameters
+    ----------
+    speed_rpm, temperature_c : float
+        Declared input speed and steady temperature (a ``temperature_offset`` fault makes the actual
+        temperature differ).
+    faults : sequence of Fault or str
+        Fault objects or CLI strings (``"tooth_damage:wheel=gear,tooth=5,depth=0.3"``).
+    noise : (float, float)
+        Range of the white-noise standard deviation per channel, as a fraction of the channel's RMS
+        about its mean (at least a tenth of the largest RMS among the channels of the same
+        quantity); each channel draws its own fraction.
+    gain_error : float
+        Each channel is multiplied by a gain drawn uniformly in ``1 +- gain_error``.
+    seed : int
+        Seed of the noise and gain draws.
+    housing : bool
+        Also record the housing accelerations at bearing 2 (``bearing2_housing_ax/ay``,
+        :mod:`lumped_gearbox.housing`).
+    """
+    gb = gearbox or Gearbox()
+    fl = [parse_fault(f) if isinstance(f, str) else f for f in faults]
+    setup = build(gb, speed_rpm, temperature_c, fl)
+    clean = run(setup, duration_s, sample_rate_hz)
+    channels = CHANNELS
+    if housing:
+        for c in HOUSING_CHANNELS:
+            clean[c] = housing_acceleration(clean[f"bearing2_f{c[-1]}"], sample_rate_hz)
+        channels = CHANNELS + HOUSING_CHANNELS
+    rng = np.random.default_rng(seed)
+    data: dict[str, np.ndarray] = {}
+    nf: dict[str, float] = {}
+    gains: dict[str, float] = {}
+    for ch in channels:
+        x = clean[ch]
+        frac = float(rng.uniform(*noise))
+        g = float(rng.uniform(1.0 - gain_error, 1.0 + gain_error))
+        # noise floor: a tenth of the largest RMS among the channels of the same quantity, so that a
+        # channel without dynamic content (the axial force of an aligned gearbox) is not noise-free
+        same = [c for c in channels if c[:-1] == ch[:-1]]
+        floor = 0.1 * max(float(np.std(clean[c])) for c in same)
+        sigma = frac * max(float(np.std(x)), floor)
+        data[ch] = g * x + rng.normal(0.0, sigma, x.size)
+        nf[ch], gains[ch] = frac, g
+    fm = clean["mesh_force"]
+    loss = float(np.mean(np.abs(fm) <= 1e-9 * max(1.0, float(np.max(np.abs(fm))))))
+    return Record(
+        clean["time_s"], data, speed_rpm, temperature_c, fl, nf, gains, seed, clean, setup.temperature_c, loss
+    )
+
+
+def write_record(path: str | Path, record: Record | None = None, **kwargs: Any) -> Path:
+    """Write ``<path>.csv``, the ``.yaml`` sidecar and ``.truth.json``; returns the CSV path.
+
+    Either pass a :class:`Record` or the keyword arguments of :func:`make_record`.
+    """
+    rec = record if record is not None else make_record(**kwargs)
+    path = Path(path).with_suffix(".csv")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = [c for c in (*CHANNELS, *HOUSING_CHANNELS) if c in rec.data]
+    cols = [rec.time_s] + [rec.data[c] for c in names]
+    np.savetxt(
+        path,
+        np.column_stack(cols),
+        delimiter=",",
+        header=",".join(("time_s", *names)),
+        comments="",
+        fmt="%.9g",
+    )
+    fs = 1.0 / float(rec.time_s[1] - rec.time_s[0])
+    sidecar = {
+        "sample_rate_hz": round(fs, 6),
+        "operating_point": {
+            "speed_rpm": float(rec.speed_rpm),
+            "temperature_c": float(rec.temperature_c),
+            "output_torque_nm": 200.0,
+        },
+        "gearbox": "paper_sun2021",
+        "description": "lumped_gearbox (independent lumped-parameter model), docs/independent_data.md",
+        "channels": SIDECAR_CHANNELS + [c for c in SIDECAR_HOUSING if c["column"] in rec.data],
+    }
+    with open(path.with_suffix(".yaml"), "w", encoding="utf-8") as fh:
+        yaml.safe_dump(sidecar, fh, sort_keys=False)
+    with open(path.with_suffix(".truth.json"), "w", encoding="utf-8") as fh:
+        json.dump(rec.truth(), fh, indent=2)
+    return path
