@@ -63,6 +63,7 @@ from gear_rotor_sim.faults import (
     BearingStiffnessDamping,
     Effect,
     GearEccentricity,
+    GearMisalignment,
     MassUnbalance,
     MeshStiffnessDamping,
     ShaftMisalignment,
@@ -641,6 +642,19 @@ class Calibrator:
             return self._fit_phase_amplitude(e, cur)
         if isinstance(e, ToothWear):
             return self._fit_scalar_amplitude(e, cur, None, "wear_depth_m", e.specs[0].upper)
+        if isinstance(e, GearMisalignment):
+            # |cos(theta + phi)| is not a cos/sin basis in phi: the phase on a 4-point grid
+            fits = [
+                self._fit_scalar_amplitude(
+                    e.with_parameters(phase_rad=ph), cur, None, "angle_rad", e.specs[0].upper
+                )
+                for ph in (-0.75 * math.pi, -0.25 * math.pi, 0.25 * math.pi, 0.75 * math.pi)
+            ]
+            fits = [f for f in fits if f is not None]
+            if not fits:
+                return None
+            best = min(fits, key=lambda f: f.score.balanced_chi2)
+            return dataclasses.replace(best, k=2)
         if isinstance(e, BearingDefect):
             return self._fit_scalar_amplitude(e, cur, None, "force_n", e.specs[0].upper)
         if isinstance(e, TemperatureOffset):
