@@ -24,6 +24,10 @@ EXIT_INVALID = 2
 EXIT_NON_FINITE = 3
 
 
+def _fmt(v: object) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "measurement",
@@ -166,13 +170,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"baseline ({result.baseline_source}):")
         for b in result.baseline_updates:
             if b.effect is not None:
-                ps = ", ".join(f"{k}={v:.4g}" for k, v in b.parameters.items())
+                ps = ", ".join(f"{k}={_fmt(v)}" for k, v in b.parameters.items())
                 print(f"  {b.label}: {ps}")
         print(
             "error (normalised RMS residual, 1 = noise level): "
             f"{result.error_before:.4g} -> {result.error_after:.4g}"
         )
         for e in result.effects:
-            ps = ", ".join(f"{k}={v:.4g}" for k, v in e.parameters.items())
+            ps = ", ".join(f"{k}={_fmt(v)}" for k, v in e.parameters.items())
             print(f"  {e.label}: {ps} (confidence {e.confidence:.3f})")
     return 0
