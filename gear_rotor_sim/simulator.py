@@ -42,6 +42,7 @@ from gear_rotor_sim.solver.newmark import (
     SimulationDiverged,
     SolverState,
     StepContext,
+    _effect_arrays,
     available_channels,
     check_steps_per_mesh,
     mesh_frequency_hz,
@@ -194,10 +195,8 @@ class Simulator:
             if not rate > 0:  # also rejects NaN
                 raise ValueError(f"{name}: {rate!r} must be > 0 (inf for a jump)")
         self.effects = tuple(effects)
-        for eff in self.effects:
-            fn = getattr(eff, "modify_config", None)
-            if fn is not None:
-                cfg = fn(cfg)
+        self.base_cfg = cfg
+        cfg = _modified_config(cfg, self.effects)
         self.cfg = cfg
         self._builder = system_builder or _default_builder
         self.output_rate_hz = float(output_rate_hz)
@@ -244,8 +243,11 @@ class Simulator:
     @staticmethod
     def default_channels(system: AssembledSystem) -> list[str]:
         names: list[str] = []
-        if system.meshes:
+        if len(system.meshes) == 1:
             names += ["dte", "mesh_force"]
+        else:  # one DTE and force channel per mesh, 1-based in the order of ``meshes:``
+            for k in range(1, len(system.meshes) + 1):
+                names += [f"mesh{k}_dte", f"mesh{k}_force"]
         for b in system.bearings:
             names += [f"bearing{b.number}_f{c}" for c in "xyz"]
         if system.meshes:
@@ -376,6 +378,34 @@ class Simulator:
             _check_temperature(temperature_c)
             self._system(self._tq(temperature_c))  # material policy check now, not mid-stream
             self._temp = _Ramp(t, float(self._temp.value(t)), float(temperature_c), self.temperature_ramp)
+
+    def set_effects(self, effects: Sequence[Effect]) -> None:
+        """Replace the effects from the current integration time on; the state is carried.
+
+        The systems are rebuilt with the effects' ``modify_config`` applied to the rig given at
+        construction (``base_cfg``), and the carried effect force amplitudes are those of the new
+        effects at the current step, so that a fault already active continues without a jump. The
+        integration runs the decimation filter's group delay (about 25 output samples) ahead of the
+        last emitted sample: the change shows from there.
+        """
+        effects = tuple(effects)
+        cfg = _modified_config(self.base_cfg, effects)
+        self.effects = effects
+        self.cfg = cfg
+        self._systems.clear()
+        _, stepper = self._system(self._tq_cur)
+        t = self._raw_time
+        dt = self.dt
+        tt = np.array([t - dt, t, t + dt])
+        angle = self._angle0 + self._speed.integral(tt) * (2.0 * np.pi / 60.0)
+        speed = self._speed.value(tt) * (2.0 * np.pi / 60.0)
+        st = self._state
+        if stepper.lin.ne:
+            _, _, _, _, ampl = _effect_arrays(stepper.lin, tt, angle, speed, effects)
+            st.ampl = ampl[-1].copy()
+        else:
+            st.ampl = np.zeros(0)
+        self._activate(stepper, st, float(self._speed.value(t)))
 
     def advance(self, duration: float) -> SampleBlock:
         """Integrate and return the output samples with times in [time_s, time_s + duration)."""
@@ -540,6 +570,14 @@ class Simulator:
             self._seg_out0 += self._raw // self._k
             self._seg_t0 = t
             self._raw = 0
+
+
+def _modified_config(cfg: Any, effects: Sequence[Effect]) -> Any:
+    for eff in effects:
+        fn = getattr(eff, "modify_config", None)
+        if fn is not None:
+            cfg = fn(cfg)
+    return cfg
 
 
 def _check_speed(speed_rpm: float) -> None:

@@ -200,3 +200,34 @@ def serialize_diagnostic_array(fields: Mapping) -> bytes:
             w.string(str(key))
             w.string(str(value))
     return w.getvalue()
+
+
+def serialize_fault_state(fields: Mapping) -> bytes:
+    """CDR bytes of a ``gear_rotor_msgs/msg/FaultState``.
+
+    Parameters
+    ----------
+    fields : mapping
+        Keys ``stamp_sec``, ``stamp_nanosec``, ``frame_id`` and ``faults``: a sequence of mappings
+        with the ``gear_rotor_msgs/msg/Fault`` fields (``type``, ``label``, ``wheel``, ``tooth``,
+        ``mesh``, ``bearing``, ``node``, ``onset_s``, ``severity_name``, ``severity``,
+        ``final_severity``, ``active``, ``spec_json``), as :func:`gear_rotor_sim.faults.truth.fault_fields`
+        builds them.
+    """
+    w = CdrWriter()
+    w.header(fields["stamp_sec"], fields["stamp_nanosec"], fields["frame_id"])
+    faults = fields["faults"]
+    w.uint32(len(faults))
+    for f in faults:
+        w.string(f["type"])
+        w.string(f["label"])
+        w.string(f["wheel"])
+        for key in ("tooth", "mesh", "bearing", "node"):
+            w.int32(f[key])
+        w.float64(f["onset_s"])
+        w.string(f["severity_name"])
+        w.float64(f["severity"])
+        w.float64(f["final_severity"])
+        w.bool(f["active"])
+        w.string(f["spec_json"])
+    return w.getvalue()

@@ -11,13 +11,22 @@ A sweep file (YAML, safe loader, strictly validated) describes the runs::
       speed_rpm: [1000, 3000, 6000]
       temperature_c: [25, 125]
       bearing_type: ["A#", "B#"]
+      faults:                    # a grid axis of fault lists (docs/faults.md); [] is the healthy run
+        - []
+        - [{type: tooth_damage, wheel: gear, tooth: 5, depth: 0.3}]
+        - [{type: outer_race_defect, bearing: 2, force_n: 500}]
     runs:                        # explicit runs (base values overridden), added after the grid
       - {speed_rpm: 3000, temperature_c: 25, schedule: [{at_s: 1.0, speed_rpm: 6000}]}
+      - speed_rpm: 3000          # a fault appearing at 0.5 s and growing (run to failure)
+        temperature_c: 25
+        faults: [{type: tooth_damage, tooth: 3, depth: 0.1, onset_s: 0.5,
+                  growth: {law: exponential, final: 0.8, duration_s: 1.0}}]
     recording: {qos: sensor_data, flush_period_s: 1.0, compression: none}
 
 Run keys: ``speed_rpm``, ``temperature_c``, ``duration_s``, ``config``, ``bearing_type``,
 ``sample_rate_hz``, ``streams``, ``displacement_nodes``, ``acceleration_nodes``, ``schedule``,
-``block_s``.
+``block_s``, ``faults``. Each run's MCAP carries its ground truth (topic ``/gear_rotor/faults``
+and the metadata record ``gear_rotor_sim.faults``); the manifest lists each run's ``faults``.
 
 Output folder: one MCAP file per run (``run_<index>_<id>.mcap``, ``id`` = first 12 hex digits of
 the SHA-256 of the run's parameters) and ``manifest.json``. Each run is written to
@@ -73,6 +82,7 @@ RUN_KEYS = (
     "acceleration_nodes",
     "schedule",
     "block_s",
+    "faults",
 )
 TOP_KEYS = ("name", "base", "grid", "runs", "recording")
 RECORDING_KEYS = ("qos", "flush_period_s", "compression")
@@ -154,6 +164,14 @@ def _run_parameters(values: Mapping, path: str) -> RunParameters:
             kwargs[key] = _node_list(values[key], f"{path}.{key}")
     if "schedule" in values:
         kwargs["schedule"] = parse_schedule(values["schedule"], duration, f"{path}.schedule")
+    if values.get("faults") is not None:
+        from gear_rotor_sim.faults.spec import FaultError, parse_faults
+
+        try:
+            faults = parse_faults(values["faults"], key=f"{path}.faults")
+        except FaultError as exc:
+            raise InputError(str(exc)) from None
+        kwargs["faults"] = tuple(f.as_dict() for f in faults)
     return RunParameters(**kwargs)
 
 
@@ -317,6 +335,7 @@ def _params_from_dict(d: Mapping) -> RunParameters:
     d["displacement_nodes"] = tuple(d["displacement_nodes"])
     d["acceleration_nodes"] = tuple(d["acceleration_nodes"])
     d["schedule"] = tuple(ScheduleStep(**s) for s in d["schedule"])
+    d["faults"] = tuple(dict(f) for f in d.get("faults", ()))
     return RunParameters(**d)
 
 
@@ -341,6 +360,7 @@ def execute_run(params: dict, recording: dict, out_dir: str, file: str, run_id_:
         "id": run_id_,
         "file": file,
         "parameters": params,
+        "faults": list(params.get("faults", [])),
         "duration_s": result.duration_s,
         "sha256": sha256_file(out),
         "bytes": result.bytes,

@@ -5,6 +5,8 @@ Example::
     gear-rotor-sim record --speed-rpm 3000 --temperature-c 125 --duration-s 2 --out run.mcap
     gear-rotor-sim record --duration-s 4 --out ramp.mcap \\
         --schedule "[{at_s: 1, speed_rpm: 6000}, {at_s: 2.5, temperature_c: 150}]"
+    gear-rotor-sim record --speed-rpm 3000 --temperature-c 25 --duration-s 2 \\
+        --faults FAULTS.yaml --out run.mcap      # injected faults, ground truth on /gear_rotor/faults
 
 :func:`record_run` is the shared core: the dataset generator records each run with it.
 """
@@ -24,7 +26,9 @@ import yaml
 
 from gear_rotor_sim.streams import StreamSpec, default_streams
 
-STREAM_NAMES = ("dte", "bearing_forces", "displacements", "accelerations")
+STREAM_NAMES = ("dte", "bearing_forces", "displacements", "accelerations", "housing_accelerations")
+#: Topic name (under /gear_rotor) of the housing accelerometers (gear_rotor_sim.sensors.housing).
+HOUSING_STREAM = "housing_accelerations"
 SAMPLE_RATE_RANGE_HZ = (1.0, 1.0e6)
 DURATION_RANGE_S = (0.0, 86400.0)
 
@@ -57,10 +61,15 @@ class RunParameters:
     acceleration_nodes: tuple[int, ...] = ()
     schedule: tuple[ScheduleStep, ...] = ()
     block_s: float = 0.1
+    #: Injected faults: flat entries of the fault description (gear_rotor_sim.faults.spec).
+    faults: tuple[dict, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """Plain (JSON/YAML-friendly) form."""
         d = asdict(self)
+        d["faults"] = [dict(f) for f in self.faults]
+        if not self.faults:  # healthy runs keep the identity (run_id) they had before faults existed
+            del d["faults"]
         d["streams"] = list(self.streams)
         d["displacement_nodes"] = list(self.displacement_nodes)
         d["acceleration_nodes"] = list(self.acceleration_nodes)
@@ -206,6 +215,11 @@ def select_streams(cfg, params: RunParameters) -> list[StreamSpec]:
         acceleration_nodes=tuple(params.acceleration_nodes),
         has_mesh=bool(cfg.meshes),
     )
+    if HOUSING_STREAM in params.streams and cfg.bearings:
+        from gear_rotor_sim.sensors.housing import housing_channels
+
+        chans = housing_channels(range(1, len(cfg.bearings) + 1))
+        specs.append(StreamSpec(HOUSING_STREAM, chans, "gearbox_housing"))
     chosen = [s for s in specs if s.name in params.streams]
     missing = [s for s in params.streams if s not in {c.name for c in chosen}]
     if missing:
@@ -227,12 +241,59 @@ def validate_run(params: RunParameters, cfg=None) -> tuple[Any, list[StreamSpec]
             raise InputError(str(exc)) from None
     lo, hi = temperature_range_c(cfg)
     check_number(params.temperature_c, "temperature_c", lo, hi)
+    fault_specs(params, cfg)
     for i, step in enumerate(params.schedule):
         if step.temperature_c is not None:
             check_number(step.temperature_c, f"schedule[{i}].temperature_c", lo, hi)
         if step.at_s > params.duration_s:
             raise InputError(f"schedule[{i}].at_s: {step.at_s:g} is after the end ({params.duration_s:g} s)")
     return cfg, select_streams(cfg, params)
+
+
+def fault_specs(params: RunParameters, cfg) -> tuple:
+    """The run's validated faults (``FaultSpec``); InputError naming the field otherwise."""
+    from gear_rotor_sim.faults.spec import FaultError, parse_faults
+
+    try:
+        return parse_faults(list(params.faults), cfg)
+    except FaultError as exc:
+        raise InputError(str(exc)) from None
+
+
+def load_fault_file(text: str) -> tuple[dict, ...]:
+    """``--faults``: a YAML file (``faults: [...]``) or an inline YAML list; flat validated entries."""
+    from gear_rotor_sim.faults.spec import FaultError, load_faults
+
+    try:
+        return tuple(f.as_dict() for f in load_faults(text))
+    except FaultError as exc:
+        raise InputError(str(exc)) from None
+
+
+#: Topic of the fault ground truth (the node publishes it latched; recordings carry it).
+FAULTS_TOPIC = "/gear_rotor/faults"
+#: MCAP metadata record holding the requested faults as JSON.
+FAULTS_METADATA = "gear_rotor_sim.faults"
+
+
+def latched_qos() -> dict:
+    """Offered QoS of the fault topic: reliable, transient local, keep last 1."""
+    from gear_rotor_sim.recording.writer import qos_profile
+
+    return {**qos_profile("reliable"), "depth": 1, "durability": "transient_local"}
+
+
+def write_fault_state(rec, faults: Sequence, t: float, sequence: int) -> None:
+    """Write the ground truth at simulated time ``t`` on :data:`FAULTS_TOPIC`."""
+    from gear_rotor_sim.faults.truth import fault_state_fields
+    from gear_rotor_sim.recording import schemas
+    from gear_rotor_sim.recording.cdr import serialize_fault_state
+
+    fields = fault_state_fields(faults, t)
+    stamp = fields["stamp_sec"] * 1_000_000_000 + fields["stamp_nanosec"]
+    rec.write_serialized(
+        FAULTS_TOPIC, schemas.FAULT_STATE, serialize_fault_state(fields), stamp, sequence=sequence
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -272,19 +333,31 @@ def record_run(
     RecordingError
         The file could not be written (unwritable folder, full disk).
     """
+    from gear_rotor_sim.faults.timed import timed_effects
+    from gear_rotor_sim.faults.truth import truth, truth_json
+    from gear_rotor_sim.recording import schemas
     from gear_rotor_sim.recording.writer import McapRecorder
     from gear_rotor_sim.simulator import Simulator
 
     cfg, specs = validate_run(params)
-    channels = list(dict.fromkeys(c for s in specs for c in s.channels))
+    faults = fault_specs(params, cfg)
+    housing = _housing(specs, params)
+    channels = list(
+        dict.fromkeys(
+            [c for s in specs if s.name != HOUSING_STREAM for c in s.channels]
+            + (list(housing.sources) if housing else [])
+        )
+    )
     sim = Simulator(
         cfg,
         speed_rpm=params.speed_rpm,
         temperature_c=params.temperature_c,
         output_rate_hz=params.sample_rate_hz,
         channels=channels,
+        **({"effects": timed_effects(faults)} if faults else {}),
     )
     meta = {"generator": "gear-rotor-sim record", **{k: _text(v) for k, v in params.as_dict().items()}}
+    meta["faults"] = truth_json(faults)
     meta.update(custom_data or {})
     steps = list(params.schedule)
     samples = {s.topic: 0 for s in specs}
@@ -301,6 +374,13 @@ def record_run(
         atomic=atomic,
         custom_data=meta,
     ) as rec:
+        rec.add_topic(FAULTS_TOPIC, schemas.FAULT_STATE, qos=latched_qos())
+        rec.add_metadata(
+            FAULTS_METADATA, {"faults": truth_json(faults), "format": "flat fault entries, JSON"}
+        )
+        write_fault_state(rec, faults, 0.0, 0)
+        n_truth = 1
+        last_truth = truth(faults, 0.0)
         while sim.time_s < end - half_sample:
             while steps and steps[0].at_s <= sim.time_s + half_sample:
                 _apply(sim, steps.pop(0))
@@ -312,10 +392,17 @@ def record_run(
             t1 = time.perf_counter()
             t_sim += t1 - t0
             if block.n_samples:
+                if housing is not None:
+                    block = _with_housing(block, housing)
                 for spec in specs:
                     rec.write_block(block, spec, seq)
                     samples[spec.topic] += block.n_samples
                 seq += 1
+            now = truth(faults, sim.time_s)
+            if now != last_truth:  # onset passed or severity grew: the state at the block end
+                write_fault_state(rec, faults, sim.time_s, n_truth)
+                n_truth += 1
+                last_truth = now
             t_rec += time.perf_counter() - t1
             if progress is not None:
                 progress(sim.time_s)
@@ -329,6 +416,43 @@ def record_run(
         samples_per_topic=samples,
         simulate_wall_s=t_sim,
         record_wall_s=t_rec,
+    )
+
+
+def _housing(specs: Sequence[StreamSpec], params: RunParameters):
+    """Streaming housing accelerometers of the run (default housing model and noise), or None.
+
+    The noise is seeded from the run's parameters: the same run gives the same file.
+    """
+    spec = next((s for s in specs if s.name == HOUSING_STREAM), None)
+    if spec is None:
+        return None
+    import json
+    import zlib
+
+    from gear_rotor_sim.sensors.housing import HousingAccelerometers
+    from gear_rotor_sim.sensors.noise import SensorNoise
+
+    seed = zlib.crc32(json.dumps(params.as_dict(), sort_keys=True).encode("utf-8"))
+    return HousingAccelerometers(spec.channels, params.sample_rate_hz, noise=SensorNoise(seed=seed))
+
+
+def _with_housing(block, housing):
+    """``block`` with the housing-acceleration channels appended."""
+    import numpy as np
+
+    from gear_rotor_sim.blocks import SampleBlock
+
+    acc = housing.process(block.select(housing.sources).data)
+    return SampleBlock(
+        block.t0,
+        block.sample_rate_hz,
+        block.channels + housing.channels,
+        block.units + ("m/s^2",) * len(housing.channels),
+        np.hstack([block.data, acc]),
+        block.first_index,
+        block.speed_rpm,
+        block.temperature_c,
     )
 
 
@@ -372,6 +496,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="setpoint steps: a YAML file or an inline list such as "
         "'[{at_s: 1, speed_rpm: 5000}, {at_s: 2, temperature_c: 125}]'",
     )
+    parser.add_argument(
+        "--faults",
+        help="faults to inject: a YAML file holding 'faults: [...]' or an inline list such as "
+        "'[{type: tooth_damage, wheel: gear, tooth: 5, depth: 0.3}]' (docs/faults.md)",
+    )
     parser.add_argument("--config", default="paper_sun2021", help="rig config name or YAML path")
     parser.add_argument("--bearing-type", help="bearing type for all bearings (e.g. A#, B#, C#)")
     parser.add_argument(
@@ -405,6 +534,7 @@ def params_from_args(args: argparse.Namespace) -> RunParameters:
         acceleration_nodes=tuple(args.acceleration_nodes),
         schedule=schedule,
         block_s=args.block_s,
+        faults=load_fault_file(args.faults) if args.faults else (),
     )
 
 

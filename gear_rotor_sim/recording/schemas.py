@@ -26,6 +26,7 @@ from pathlib import Path
 
 VIBRATION_CHUNK = "gear_rotor_msgs/msg/VibrationChunk"
 CONDITION_INDICATORS = "gear_rotor_msgs/msg/ConditionIndicators"
+FAULT_STATE = "gear_rotor_msgs/msg/FaultState"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 
 SEPARATOR = "=" * 80

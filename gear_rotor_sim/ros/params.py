@@ -276,6 +276,11 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "for use_sim_time consumers.",
         runtime=True,
     ),
+    ParamSpec(
+        "faults_file",
+        "",
+        "YAML fault list injected from the start (docs/faults.md); at run time use the ~/set_faults service.",
+    ),
     ParamSpec("recording.enabled", False, "Record the published streams to an MCAP file (rosbag2 layout)."),
     ParamSpec("recording.path", "gear_rotor_sim.mcap", "Path of the MCAP file written when recording."),
     ParamSpec(

@@ -37,7 +37,8 @@ from typing import Any
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from gear_rotor_msgs.msg import VibrationChunk
+from gear_rotor_msgs.msg import FaultState, VibrationChunk
+from gear_rotor_msgs.srv import SetFaults
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import SingleThreadedExecutor
@@ -55,6 +56,7 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, MultiArrayDimension
 
 from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.ros.node_faults import FAULTS_QOS, FAULTS_TOPIC, NodeFaults, fault_state_msg
 from gear_rotor_sim.ros.params import (
     NOISE_FIELDS,
     SIMULATOR_PARAMETERS,
@@ -197,6 +199,21 @@ def fill_chunk(msg: VibrationChunk, fields: dict) -> VibrationChunk:
 
 #: Blocks the stepping thread may run ahead of the output thread (publishing and recording).
 _OUTPUT_QUEUE = 2
+
+
+def process_age_s() -> float | None:
+    """Seconds since this process started (Linux ``/proc/self/stat``); None where unavailable."""
+    try:
+        with open("/proc/self/stat", encoding="ascii") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        start_ticks = int(fields[19])  # field 22, starttime, in clock ticks since boot
+        import os
+
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - start_ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
 #: Interpreter-lock switch interval of the node process (Python's default is 5 ms).
 GIL_SWITCH_INTERVAL_S = 2e-4
 
@@ -210,6 +227,9 @@ class SimulatorNode(Node):
     """
 
     def __init__(self) -> None:
+        self._t_constructed = time.monotonic()
+        #: Seconds from the constructor to the first published message (None until then); logged.
+        self.startup_s: float | None = None
         super().__init__(NODE_NAME)
         self._check_unknown_overrides()
         self._specs = spec_by_name(SIMULATOR_PARAMETERS)
@@ -232,6 +252,9 @@ class SimulatorNode(Node):
             s.name: self.create_publisher(VibrationChunk, s.topic, qos) for s in self._streams
         }
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
+        self._faults: NodeFaults | None = None  # built in start() (needs the rig)
+        self._fault_pub = self.create_publisher(FaultState, FAULTS_TOPIC, FAULTS_QOS)
+        self.create_service(SetFaults, "~/set_faults", self._on_set_faults)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.create_subscription(Float64, SPEED_SETPOINT_TOPIC, self._on_speed, SETPOINT_QOS)
         self.create_subscription(Float64, TEMPERATURE_SETPOINT_TOPIC, self._on_temperature, SETPOINT_QOS)
@@ -290,6 +313,14 @@ class SimulatorNode(Node):
                 cfg = cfg.with_bearing_type(str(v["bearing_type"]))
         except ValueError as exc:
             raise ParamError(f"model/bearing_type: {exc}") from exc
+        from gear_rotor_sim.faults.spec import FaultError, load_faults
+
+        faults_file = str(v["faults_file"]).strip()
+        try:
+            initial = load_faults(faults_file, cfg) if faults_file else ()
+        except FaultError as exc:
+            raise ParamError(f"faults_file: {faults_file}: {exc}") from exc
+        self._faults = NodeFaults(cfg, initial)
         available = {name for name, _unit in Simulator.available_channels(cfg)}
         channels = [c for s in self._streams for c in s.channels]
         missing = [c for c in channels if c not in available]
@@ -309,6 +340,7 @@ class SimulatorNode(Node):
                 contact_loss_rate_hz=float(v["contact_loss_rate_hz"]) or None,
                 speed_ramp_rpm_per_s=float(v["speed_ramp_rpm_per_s"]),
                 temperature_ramp_c_per_s=float(v["temperature_ramp_c_per_s"]),
+                effects=self._faults.effects(),
             )
         except ValueError as exc:
             raise ParamError(f"simulator refused the parameters: {exc}") from exc
@@ -341,8 +373,13 @@ class SimulatorNode(Node):
         reliable = self._values["stream_qos.reliability"] == "reliable"
         offered = dict(qos_profile("reliable" if reliable else "sensor_data"))
         offered["depth"] = int(self._values["stream_qos.depth"])
+        from gear_rotor_sim.recording import schemas
+        from gear_rotor_sim.recording.record_cli import latched_qos
+
         try:
-            return McapRecorder(path, self._streams, qos=offered, flush_period_s=flush_period_s)
+            rec = McapRecorder(path, self._streams, qos=offered, flush_period_s=flush_period_s)
+            rec.add_topic(FAULTS_TOPIC, schemas.FAULT_STATE, qos=latched_qos())
+            return rec
         except (OSError, ValueError, RecordingError) as exc:
             raise ParamError(f"recording.path: cannot record to {path!r}: {exc}") from exc
 
@@ -421,6 +458,22 @@ class SimulatorNode(Node):
             else:
                 self._state.pending_temperature = float(value)
             self._state.accepted += 1
+
+    def _on_set_faults(self, request: SetFaults.Request, response: SetFaults.Response) -> SetFaults.Response:
+        """``~/set_faults``: validate now, apply between two chunks; a refusal changes nothing."""
+        if self._faults is None:
+            response.success, response.message = False, "refused: the simulator is not running yet"
+            return response
+        try:
+            ok, message = self._faults.request(request.faults_yaml)
+        except Exception as exc:  # never let a request take the node down
+            ok, message = False, f"refused, faults unchanged: {type(exc).__name__}: {exc}"
+        response.success, response.message = ok, message
+        if ok:
+            self.get_logger().info(f"set_faults accepted: {message}")
+        else:
+            self.get_logger().warning(f"set_faults {message}")
+        return response
 
     def _refuse(self, reason: str) -> None:
         """Count a refused setpoint and log it at WARN (at most once per second, with a count)."""
@@ -545,7 +598,28 @@ class SimulatorNode(Node):
             except Exception as exc:  # reported; the stream goes on with the next block
                 self.get_logger().error(f"publishing failed: {type(exc).__name__}: {exc}")
 
+    def _publish_faults(self, t: float) -> None:
+        """Ground truth on /gear_rotor/faults (and in the recording) when it changed."""
+        if self._faults is None:
+            return
+        fields = self._faults.state_if_changed(t)
+        if fields is None:
+            return
+        self._fault_pub.publish(fault_state_msg(fields))
+        if self._recorder is not None:
+            from gear_rotor_sim.recording.cdr import serialize_fault_state
+            from gear_rotor_sim.recording.schemas import FAULT_STATE
+
+            stamp = fields["stamp_sec"] * 1_000_000_000 + fields["stamp_nanosec"]
+            try:
+                self._recorder.write_serialized(
+                    FAULTS_TOPIC, FAULT_STATE, serialize_fault_state(fields), stamp
+                )
+            except Exception as exc:  # the recording's own failure handling reports on the next chunk
+                self.get_logger().error(f"fault state not recorded: {exc}")
+
     def _publish_block(self, block: SampleBlock, t_end: float, sequence: dict, clock: Clock) -> None:
+        self._publish_faults(block.t0)
         if self._rebuild_noise:
             self._rebuild_noise = False
             self._build_noise()
@@ -567,6 +641,8 @@ class SimulatorNode(Node):
             seq = sequence[spec.name]
             msg = fill_chunk(VibrationChunk(), chunk_fields(sub, spec, seq))
             self._stream_pubs[spec.name].publish(msg)
+            if self.startup_s is None:
+                self._log_startup()
             if self._recorder is not None:
                 self._write_recording(sub, spec, seq)
             sequence[spec.name] = seq + 1
@@ -603,11 +679,24 @@ class SimulatorNode(Node):
         fields["achieved_real_time_factor"] = self.achieved_rtf()
         self._live.publish_status(fields, t_end)
 
+    def _log_startup(self) -> None:
+        self.startup_s = time.monotonic() - self._t_constructed
+        age = process_age_s()
+        self.get_logger().info(
+            f"start-up: first message {self.startup_s:.2f} s after the node constructor"
+            + (f", {age:.2f} s after the process started" if age is not None else "")
+        )
+
     def _simulate(self, out_q: queue.Queue) -> None:
         expected_index: int | None = None
         anchor_wall = anchor_sim = 0.0
         while not self._stop.is_set():
             self._apply_pending()
+            if self._faults is not None:
+                try:
+                    self._faults.apply_pending(self._sim)
+                except ValueError as exc:  # validated on request; a rig-level refusal is reported
+                    self.get_logger().error(f"faults not applied, previous faults kept: {exc}")
             rtf = float(self._values["real_time_factor"])
             chunk = float(self._values["chunk_period_s"])
             t_start = float(self._sim.time_s)
