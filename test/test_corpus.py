@@ -22,6 +22,7 @@ from corpus_runner import (
     run_node_parameters,
     run_node_runtime,
     run_node_setpoints,
+    run_serve_options,
     run_serve_setpoints,
 )
 
@@ -43,6 +44,14 @@ def test_measurement(case):
     if case["expect"] == "error":
         assert r["exit"] == 2 and "\n" not in r["message"] and r["stdout"] == ""
         assert case["file"].split(".")[0] in r["message"]  # the file is named
+
+
+@pytest.mark.parametrize(
+    "case", REQUESTS["serve_options"], ids=[c["case"] for c in REQUESTS["serve_options"]]
+)
+def test_serve_options(case):
+    r = run_serve_options(case)
+    assert matches(case, r["outcome"], r["message"]) and r["exit"] == 2, r
 
 
 def test_serve_setpoints():

@@ -170,6 +170,8 @@ def run(args: argparse.Namespace) -> int:
         return fail(f"--chunk-s: {args.chunk_s} is outside [0.001, 2] s")
     stop = threading.Event()
     try:
+        if not (math.isfinite(args.real_time_factor) and args.real_time_factor > 0):
+            return fail(f"--real-time-factor: {args.real_time_factor} must be finite and > 0")
         pacer = ChunkPacer(args.real_time_factor, sleep=stop.wait)
         nodes = _nodes(args.displacement_nodes)
         cfg = load_config(args.config)
