@@ -297,6 +297,13 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec("stream_qos.depth", 10, "QoS history depth (keep last) of the sample streams.", (1, 10000)),
     ParamSpec("diagnostics_period_s", 1.0, "Wall-clock period of /diagnostics messages, s.", (0.05, 60.0)),
+    ParamSpec(
+        "foxglove_port",
+        0,
+        "Also serve the streams, indicators and setpoints on a Foxglove WebSocket on this port "
+        "(8765 is the Foxglove app's default; docs/live.md); 0: off.",
+        (0, 65535),
+    ),
 )
 
 MONITOR_PARAMETERS: tuple[ParamSpec, ...] = (

@@ -245,6 +245,7 @@ class SimulatorNode(Node):
         self._noise: dict[str, NoiseModel] = {}
         self._rebuild_noise = True
         self._reanchor = True
+        self._live: Any = None  # LiveServer when foxglove_port is set (docs/live.md)
 
         qos = stream_qos(self._values["stream_qos.reliability"], int(self._values["stream_qos.depth"]))
         self._stream_pubs = {
@@ -355,6 +356,8 @@ class SimulatorNode(Node):
                 str(v["recording.path"]), float(v["recording.flush_period_s"])
             )
             self._recording_status = f"recording to {v['recording.path']}"
+        if v["foxglove_port"]:
+            self._live = self._open_live(cfg, int(v["foxglove_port"]))
         self._thread = threading.Thread(target=self._run, name="gear_rotor_stepping", daemon=True)
         self._thread.start()
         self.get_logger().info(
@@ -380,6 +383,21 @@ class SimulatorNode(Node):
         except (OSError, ValueError, RecordingError) as exc:
             raise ParamError(f"recording.path: cannot record to {path!r}: {exc}") from exc
 
+    def _open_live(self, cfg: Any, port: int) -> Any:
+        """The Foxglove WebSocket server of ``foxglove_port``; its setpoints take the topics' path."""
+        from gear_rotor_sim.live.server import LiveServer
+
+        def on_setpoint(kind: str, value: float) -> str | None:
+            reason = check_setpoint(kind, value, self._values)
+            self._setpoint(kind, value)  # stores it, or counts and logs the refusal
+            return reason
+
+        teeth = cfg.gears[0].teeth if cfg.gears else 1
+        try:
+            return LiveServer(self._streams, on_setpoint, port=port, pinion_teeth=teeth)
+        except (OSError, RuntimeError, ValueError) as exc:
+            raise ParamError(f"foxglove_port: cannot serve on port {port}: {exc}") from exc
+
     def _write_recording(self, sub: SampleBlock, spec: StreamSpec, seq: int) -> None:
         """Record one chunk; a failing recording (disk full, ...) is stopped, streaming goes on."""
         try:
@@ -399,6 +417,9 @@ class SimulatorNode(Node):
         if self._thread is not None:
             self._thread.join()
             self._thread = None
+        if self._live is not None:
+            live, self._live = self._live, None
+            live.stop()
         if self._recorder is not None:
             recorder, self._recorder = self._recorder, None
             try:
@@ -602,6 +623,7 @@ class SimulatorNode(Node):
         if self._rebuild_noise:
             self._rebuild_noise = False
             self._build_noise()
+        parts: list[SampleBlock] = []
         for spec in self._streams:
             sub = block.select(spec.channels)
             noisy = self._noise[spec.name].apply(sub.data)
@@ -624,9 +646,38 @@ class SimulatorNode(Node):
             if self._recorder is not None:
                 self._write_recording(sub, spec, seq)
             sequence[spec.name] = seq + 1
+            parts.append(sub)
+        if self._live is not None:
+            self._publish_live(parts, t_end)
         if self._values["publish_clock"]:
             clock.clock.sec, clock.clock.nanosec = time_to_stamp(t_end)
             self._clock_pub.publish(clock)
+
+    def _publish_live(self, parts: list[SampleBlock], t_end: float) -> None:
+        """The published (noisy) chunk of every stream, as one block, to the Foxglove server."""
+        first = parts[0]
+        block = SampleBlock(
+            first.t0,
+            first.sample_rate_hz,
+            tuple(c for p in parts for c in p.channels),
+            tuple(u for p in parts for u in p.units),
+            np.hstack([p.data for p in parts]),
+            first.first_index,
+            first.speed_rpm,
+            first.temperature_c,
+        )
+        self._live.publish(block)
+        with self._state.lock:
+            fields = {
+                "sim_time_s": t_end,
+                "speed_rpm": self._state.speed,
+                "target_speed_rpm": self._state.target_speed,
+                "temperature_c": self._state.temperature,
+                "target_temperature_c": self._state.target_temperature,
+                "requested_real_time_factor": float(self._values["real_time_factor"]),
+            }
+        fields["achieved_real_time_factor"] = self.achieved_rtf()
+        self._live.publish_status(fields, t_end)
 
     def _log_startup(self) -> None:
         self.startup_s = time.monotonic() - self._t_constructed
