@@ -243,8 +243,11 @@ class Simulator:
     @staticmethod
     def default_channels(system: AssembledSystem) -> list[str]:
         names: list[str] = []
-        if system.meshes:
+        if len(system.meshes) == 1:
             names += ["dte", "mesh_force"]
+        else:  # one DTE and force channel per mesh, 1-based in the order of ``meshes:``
+            for k in range(1, len(system.meshes) + 1):
+                names += [f"mesh{k}_dte", f"mesh{k}_force"]
         for b in system.bearings:
             names += [f"bearing{b.number}_f{c}" for c in "xyz"]
         if system.meshes:

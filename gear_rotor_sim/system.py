@@ -15,10 +15,13 @@
   shaft's signed speed ratio. The input shaft (the one holding the drive node) has ratio 1; across a
   mesh the gear turns at ``-z_pinion / z_gear`` times the pinion's speed (external spur pair).
 * static_load: thermal node loads (Eqs 9-11) at ``temperature_c - reference`` plus the load torque.
-  Sign convention: the input shaft spins positive about z, the output shaft negative; the resisting
-  load torque therefore acts ``+theta_z`` on the load node (``static_load[dof(load, theta_z)] =
-  +torque``). With V of Eq 22 the mesh's generalised force ``-V F_m`` puts ``-r_bg F_m`` on the gear's
-  theta_z, so statics give ``F_m = T2 / r_bg > 0`` (drive-flank contact).
+  Sign convention: the input shaft spins positive about z, the paper's output shaft negative; the
+  resisting load torque acts against the load shaft's spin, ``+theta_z`` on the paper's output node
+  (``static_load[dof(load, theta_z)] = -sign(ratio) torque``). With V of Eq 22 the
+  mesh's generalised force ``-V F_m`` puts ``-r_bg F_m`` on the gear's theta_z, so statics give
+  ``F_m = T2 / r_bg > 0`` (drive-flank contact). A mesh whose pinion turns negative (a second stage)
+  is assembled as the mirror image (``build_mesh_coupling(pinion_spin=-1)``), so every driving
+  pinion loads its drive flank.
 * Drive condition (torsional rigid-body mode of the train): the drive node's theta_z follows the
   commanded rotation exactly (a rigid, constant-speed motor); it is removed from ``free_dofs``. The
   driving torque is the reaction at that DOF and balances the load torque through the mesh.
@@ -211,7 +214,10 @@ class GearRotorSystem:
 
         static_load = thermal.copy()
         if cfg.load is not None:
-            static_load[6 * cfg.load.node0 + THETA_Z] += cfg.load.torque_nm  # resists the negative spin
+            # resists the spin of the load shaft: +theta_z on a shaft turning negative (the paper's output
+            # shaft), -theta_z on one turning positive (e.g. the third shaft of a two-stage train)
+            spin = np.sign(ratios[cfg.shaft_of_node(cfg.load.node0)]) or -1.0
+            static_load[6 * cfg.load.node0 + THETA_Z] -= spin * cfg.load.torque_nm
 
         drive_dof = 6 * cfg.drive.node0 + THETA_Z
         free = np.setdiff1d(np.arange(ndof), [drive_dof])
@@ -241,6 +247,7 @@ class GearRotorSystem:
                         gear_teeth=gg.teeth,
                         pinion_bore_diameter=gp.bore_diameter_m,
                         gear_bore_diameter=gg.bore_diameter_m,
+                        pinion_spin=float(np.sign(ratios[shaft_of_node[gp.node0]])) or 1.0,
                     )
                 )
 

@@ -29,6 +29,9 @@ def main(argv: list[str] | None = None) -> int:
     rec.add_argument("--duration-s", type=float, default=2.0, help="recorded duration, s (default 2)")
     rec.add_argument("--sample-rate-hz", type=float, default=20000.0, help="sample rate, Hz (default 20000)")
     rec.add_argument("--seed", type=int, default=0, help="seed of noise and gains (default 0)")
+    rec.add_argument(
+        "--housing", action="store_true", help="also record bearing2_housing_ax/ay (housing transfer path)"
+    )
     rec.add_argument("--out", required=True, help="output CSV path")
     args = parser.parse_args(argv)
     try:
@@ -41,6 +44,7 @@ def main(argv: list[str] | None = None) -> int:
             duration_s=args.duration_s,
             sample_rate_hz=args.sample_rate_hz,
             seed=args.seed,
+            housing=args.housing,
         )
         path = write_record(args.out, r)
     except (ValueError, RuntimeError) as exc:

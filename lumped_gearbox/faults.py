@@ -25,6 +25,11 @@ phase_rad)                  approach differs by ``angle * xi`` across the face (
                             the pitch point where there is no sliding), stiffness-weighted
 ``temperature_offset``      the machine runs at declared + ``offset_c``: E(T), thermal axial
 (offset_c)                  load, thermal backlash
+``outer_race_defect``,      a ball entering and leaving a spall (0.4 mm) in that race of bearing 2
+``inner_race_defect``,      (6206: 9 balls, d 9.525 mm, pitch 46 mm) gives a half-sine force pulse
+``ball_defect``             of the spall's transit time and peak ``force_n`` times the Hertz load
+(force_n, bearing=2,        factor ``max(cos psi, 0)^1.5`` at its position, between race and
+defect_angle_rad)           housing; 1 % random slip of the ball passes (Antoni & Randall 2002)
 ``bearing_stiffness``       all four bearings' radial and axial stiffness times ``scale``
 (scale)
 ==========================  =====================================================================
@@ -120,6 +125,26 @@ class TemperatureOffset:
 
 
 @dataclass(frozen=True)
+class BearingDefect:
+    kind: str = "outer"
+    force_n: float = 0.0
+    bearing: int = 2
+    defect_angle_rad: float = -0.5 * math.pi
+    main = "force_n"
+
+    @property
+    def name(self) -> str:
+        return "ball_defect" if self.kind == "ball" else f"{self.kind}_race_defect"
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("outer", "inner", "ball"):
+            raise ValueError(f"bearing defect kind: {self.kind!r} is not one of ['outer', 'inner', 'ball']")
+        if int(self.bearing) != 2:
+            raise ValueError(f"{self.name}.bearing: {self.bearing!r}; only bearing 2 (node 9) is modelled")
+        _range(f"{self.name}.force_n", self.force_n, 0.0, 1e5)
+
+
+@dataclass(frozen=True)
 class BearingStiffness:
     scale: float = 1.0
     name = "bearing_stiffness"
@@ -147,6 +172,9 @@ FAULT_NAMES = (
     "gear_misalignment",
     "tooth_wear",
     "temperature_offset",
+    "outer_race_defect",
+    "inner_race_defect",
+    "ball_defect",
     "bearing_stiffness",
 )
 
@@ -161,6 +189,9 @@ def make_fault(name: str, **params: Any) -> Fault:
     if name in ("pinion_eccentricity", "gear_eccentricity"):
         cls: Any = Eccentricity
         params = {"member": name.split("_")[0], **params}
+    elif name in ("outer_race_defect", "inner_race_defect", "ball_defect"):
+        cls = BearingDefect
+        params = {"kind": name.split("_")[0], **params}
     else:
         table = {
             "tooth_damage": ToothDamage,
@@ -210,4 +241,6 @@ def fault_truth(fault: Fault) -> dict[str, Any]:
     params = {f.name: getattr(fault, f.name) for f in fields(fault)}
     if isinstance(fault, Eccentricity):
         params.pop("member")
+    if isinstance(fault, BearingDefect):
+        params.pop("kind")
     return {"name": fault.name, "parameters": params, "main": fault.main}

@@ -80,9 +80,6 @@ class Gearbox:
         the paper gives none): sets how the centre distance follows the temperature.
     mesh_damping_ratio, torsion_damping_ratio : float
         Modal damping of the mesh and of the drive-shaft torsion (not in the paper; chosen here).
-    shaft_loss_factor : float
-        Structural damping of the shafts' lateral springs as a fraction of their stiffness times
-        1 / (2 pi 1 kHz) (a small stiffness-proportional damping).
     """
 
     z1: int = 29
@@ -104,7 +101,6 @@ class Gearbox:
     housing_expansion_per_c: float = 1.05e-5
     mesh_damping_ratio: float = 0.05
     torsion_damping_ratio: float = 0.02
-    shaft_loss_factor: float = 0.01
 
     def replace(self, **changes: float) -> Gearbox:
         return replace(self, **changes)
@@ -150,7 +146,8 @@ class Gearbox:
         return a / (a + r)
 
     # ---- inertias: solid discs at the pitch circle, bored for the shaft, plus a third of the shaft --
-    def _disc(self, radius: float) -> tuple[float, float]:
+    def disc(self, radius: float) -> tuple[float, float]:
+        """Mass and polar inertia of a bored disc of ``radius`` and the face width."""
         rb = 0.5 * self.shaft_diameter_m
         m = DENSITY * math.pi * (radius**2 - rb**2) * self.face_width_m
         j = 0.5 * m * (radius**2 + rb**2)
@@ -168,8 +165,8 @@ class Gearbox:
         (Rayleigh), a third of its polar inertia for torsion.
         """
         r1, r2 = self.pitch_radii
-        m1, j1 = self._disc(r1)
-        m2, j2 = self._disc(r2)
+        m1, j1 = self.disc(r1)
+        m2, j2 = self.disc(r2)
         ms = self.shaft_mass
         js = 0.5 * ms * (0.5 * self.shaft_diameter_m) ** 2
         lat = 17.0 / 35.0 * ms

@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 
 from lumped_gearbox.faults import Fault, fault_truth, parse_fault
+from lumped_gearbox.housing import housing_acceleration
 from lumped_gearbox.params import Gearbox
 from lumped_gearbox.simulate import CHANNELS, build, run
 
@@ -28,6 +29,11 @@ SIDECAR_CHANNELS = [
     {"column": "bearing2_fz", "quantity": "bearing_force", "bearing": 2, "direction": "z", "unit": "N"},
     {"column": "node5_ax", "quantity": "acceleration", "node": 5, "direction": "x", "unit": "m/s^2"},
     {"column": "node5_ay", "quantity": "acceleration", "node": 5, "direction": "y", "unit": "m/s^2"},
+]
+HOUSING_CHANNELS = ("bearing2_housing_ax", "bearing2_housing_ay")
+SIDECAR_HOUSING = [
+    {"column": c, "quantity": "housing_acceleration", "bearing": 2, "direction": c[-1], "unit": "m/s^2"}
+    for c in HOUSING_CHANNELS
 ]
 
 #: the two documented operating points (docs/independent_data.md): teeth in contact / rattling
@@ -75,6 +81,7 @@ def make_record(
     gain_error: float = 0.03,
     seed: int = 0,
     gearbox: Gearbox | None = None,
+    housing: bool = False,
 ) -> Record:
     """Simulate the lumped gearbox and add sensor noise and gain errors.
 
@@ -87,25 +94,38 @@ def make_record(
         Fault objects or CLI strings (``"tooth_damage:wheel=gear,tooth=5,depth=0.3"``).
     noise : (float, float)
         Range of the white-noise standard deviation per channel, as a fraction of the channel's RMS
-        about its mean; each channel draws its own fraction.
+        about its mean (at least a tenth of the largest RMS among the channels of the same
+        quantity); each channel draws its own fraction.
     gain_error : float
         Each channel is multiplied by a gain drawn uniformly in ``1 +- gain_error``.
     seed : int
         Seed of the noise and gain draws.
+    housing : bool
+        Also record the housing accelerations at bearing 2 (``bearing2_housing_ax/ay``,
+        :mod:`lumped_gearbox.housing`).
     """
     gb = gearbox or Gearbox()
     fl = [parse_fault(f) if isinstance(f, str) else f for f in faults]
     setup = build(gb, speed_rpm, temperature_c, fl)
     clean = run(setup, duration_s, sample_rate_hz)
+    channels = CHANNELS
+    if housing:
+        for c in HOUSING_CHANNELS:
+            clean[c] = housing_acceleration(clean[f"bearing2_f{c[-1]}"], sample_rate_hz)
+        channels = CHANNELS + HOUSING_CHANNELS
     rng = np.random.default_rng(seed)
     data: dict[str, np.ndarray] = {}
     nf: dict[str, float] = {}
     gains: dict[str, float] = {}
-    for ch in CHANNELS:
+    for ch in channels:
         x = clean[ch]
         frac = float(rng.uniform(*noise))
         g = float(rng.uniform(1.0 - gain_error, 1.0 + gain_error))
-        sigma = frac * float(np.std(x))
+        # noise floor: a tenth of the largest RMS among the channels of the same quantity, so that a
+        # channel without dynamic content (the axial force of an aligned gearbox) is not noise-free
+        same = [c for c in channels if c[:-1] == ch[:-1]]
+        floor = 0.1 * max(float(np.std(clean[c])) for c in same)
+        sigma = frac * max(float(np.std(x)), floor)
         data[ch] = g * x + rng.normal(0.0, sigma, x.size)
         nf[ch], gains[ch] = frac, g
     fm = clean["mesh_force"]
@@ -123,12 +143,13 @@ def write_record(path: str | Path, record: Record | None = None, **kwargs: Any) 
     rec = record if record is not None else make_record(**kwargs)
     path = Path(path).with_suffix(".csv")
     path.parent.mkdir(parents=True, exist_ok=True)
-    cols = [rec.time_s] + [rec.data[c] for c in CHANNELS]
+    names = [c for c in (*CHANNELS, *HOUSING_CHANNELS) if c in rec.data]
+    cols = [rec.time_s] + [rec.data[c] for c in names]
     np.savetxt(
         path,
         np.column_stack(cols),
         delimiter=",",
-        header=",".join(("time_s", *CHANNELS)),
+        header=",".join(("time_s", *names)),
         comments="",
         fmt="%.9g",
     )
@@ -142,7 +163,7 @@ def write_record(path: str | Path, record: Record | None = None, **kwargs: Any) 
         },
         "gearbox": "paper_sun2021",
         "description": "lumped_gearbox (independent lumped-parameter model), docs/independent_data.md",
-        "channels": SIDECAR_CHANNELS,
+        "channels": SIDECAR_CHANNELS + [c for c in SIDECAR_HOUSING if c["column"] in rec.data],
     }
     with open(path.with_suffix(".yaml"), "w", encoding="utf-8") as fh:
         yaml.safe_dump(sidecar, fh, sort_keys=False)

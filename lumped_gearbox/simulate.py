@@ -9,7 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from lumped_gearbox import model as mdl
+from lumped_gearbox.bearing import defect_forces
 from lumped_gearbox.faults import (
+    BearingDefect,
     BearingStiffness,
     Eccentricity,
     Fault,
@@ -42,6 +44,8 @@ class Setup:
     thermal_axial_n: float
     mesh_mean: float
     axial_half: float
+    speed_rpm: float = 0.0
+    bearing_defects: tuple[BearingDefect, ...] = ()
 
     def static_state(self) -> np.ndarray:
         """Static equilibrium at the mean mesh stiffness without STE (q, 8 entries)."""
@@ -82,8 +86,8 @@ def build(
         gb = gb.replace(k_radial=gb.k_radial * bscale, k_axial=gb.k_axial * bscale)
     sp = springs(gb, temp)
     m1, j1, m2, j2 = gb.masses()
-    mb1, _ = gb._disc(gb.pitch_radii[0])
-    mb2, _ = gb._disc(gb.pitch_radii[1])
+    mb1, _ = gb.disc(gb.pitch_radii[0])
+    mb2, _ = gb.disc(gb.pitch_radii[1])
     rb1, rb2 = gb.base_radii
     eps = gb.contact_ratio
     w1 = speed_rpm * 2.0 * math.pi / 60.0
@@ -150,6 +154,8 @@ def build(
         thermal_axial_load(gb, temp),
         sp.mesh_mean,
         sp.axial_half,
+        speed_rpm,
+        tuple(f for f in faults if isinstance(f, BearingDefect)),
     )
 
 
@@ -198,15 +204,21 @@ def run(
     q, v, a = out[:, 0:8], out[:, 8:16], out[:, 16:24]
     g, kk, cc = setup.geo, setup.kk, setup.cc
     sa, ca = g[mdl.G_SA], g[mdl.G_CA]
+    t = np.arange(n_out) / sample_rate_hz
+    pulses = np.zeros((n_out, 2))
+    load_angle = math.atan2(-ca, -sa)  # direction of bearing 2's static load on the housing
+    for i, d in enumerate(setup.bearing_defects):
+        pulses += defect_forces(d.kind, d.force_n, d.defect_angle_rad, setup.speed_rpm, t, load_angle, seed=i)
     dte = (
         sa * (q[:, 0] - q[:, 4]) + ca * (q[:, 1] - q[:, 5]) + g[mdl.G_RB1] * q[:, 3] + g[mdl.G_RB2] * q[:, 7]
     )
     return {
-        "time_s": np.arange(n_out) / sample_rate_hz,
+        "time_s": t,
         "dte": dte,
         # force transmitted to the housing by bearing 2 (input shaft, node 9): half the shaft's force
-        "bearing2_fx": 0.5 * (kk[mdl.K_L1] * q[:, 0] + cc[mdl.C_L1] * v[:, 0]),
-        "bearing2_fy": 0.5 * (kk[mdl.K_L1] * q[:, 1] + cc[mdl.C_L1] * v[:, 1]),
+        # plus the pulses of bearing defects (between race and housing)
+        "bearing2_fx": 0.5 * (kk[mdl.K_L1] * q[:, 0] + cc[mdl.C_L1] * v[:, 0]) + pulses[:, 0],
+        "bearing2_fy": 0.5 * (kk[mdl.K_L1] * q[:, 1] + cc[mdl.C_L1] * v[:, 1]) + pulses[:, 1],
         "bearing2_fz": setup.thermal_axial_n + setup.axial_half * q[:, 2] + 0.5 * cc[mdl.C_Z1] * v[:, 2],
         "node5_ax": a[:, 0],
         "node5_ay": a[:, 1],

@@ -46,4 +46,7 @@ fi
 if ! (cd / && "$ROOT/.venv/bin/python" -c "import gear_rotor_sim") 2>/dev/null; then
   .venv/bin/pip install -q --no-deps -e .
 fi
+# Compile the numba kernels ahead (cached next to the sources), so that the first `ros2 run` after the
+# set-up starts as fast as later ones; skipped when the cache is current (docs/ros.md, "Start-up").
+OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} .venv/bin/python -m gear_rotor_sim.warmup --if-changed
 echo "[setup] ready: . scripts/env.sh to use ROS from this checkout"

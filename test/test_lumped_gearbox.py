@@ -163,3 +163,85 @@ def test_bad_fault_names_field_and_range():
         parse_fault("crack:depth=0.1")
     with pytest.raises(ValueError, match="temperature_c"):
         build(Gearbox(), 3000.0, 400.0)
+
+
+def test_outer_race_defect_envelope_line_at_bpfo():
+    """6206 (9 balls, d = 9.525 mm, D = 46 mm): BPFO = n/2 (1 - d/D) f_shaft = 3.568 x 50 Hz."""
+    healthy = run(build(Gearbox(), 3000.0, 25.0), 1.0)
+    faulty = run(build(Gearbox(), 3000.0, 25.0, [parse_fault("outer_race_defect:force_n=300")]), 1.0)
+    pulses = faulty["bearing2_fy"] - healthy["bearing2_fy"]
+    assert np.allclose(faulty["dte"], healthy["dte"], rtol=0, atol=1e-9 * np.abs(healthy["dte"]).max())
+    env = np.abs(pulses)
+    spec = np.abs(np.fft.rfft(env - env.mean()))
+    f = np.fft.rfftfreq(env.size, 1 / 20000.0)
+    band = (f > 20) & (f < 1000)
+    bpfo = 9 / 2 * (1 - 9.525 / 46.0) * 50.0
+    assert abs(f[band][np.argmax(spec[band])] - bpfo) <= 2 * f[1]
+    # peak close to force_n times the Hertz load factor at the defect (90 deg vs load at 110 deg)
+    assert 0.5 * 300 < np.max(np.abs(pulses)) <= 300 * math.cos(math.radians(20)) ** 1.5 * (1 + 1e-9)
+
+
+def test_cli_record_and_bad_fault(tmp_path, capsys):
+    from lumped_gearbox.__main__ import main
+
+    out = tmp_path / "out" / "gear_tooth5.csv"
+    args = [
+        "record",
+        "--speed-rpm",
+        "3000",
+        "--temperature-c",
+        "25",
+        "--duration-s",
+        "0.1",
+        "--out",
+        str(out),
+    ]
+    assert main([*args, "--fault", "tooth_damage:wheel=gear,tooth=5,depth=0.3"]) == 0
+    assert out.exists() and out.with_suffix(".yaml").exists() and out.with_suffix(".truth.json").exists()
+    assert main([*args, "--fault", "tooth_damage:wheel=gear,tooth=50,depth=0.3"]) == 2
+    assert "tooth_damage.tooth: 50 outside 1..49 for the gear" in capsys.readouterr().err
+
+
+def test_housing_path_matches_sdof_frequency_response(tmp_path):
+    """Steady sine force: |a/F| = w^2 / |k - m w^2 + i c w| of the housing mode (analytic)."""
+    from gear_rotor_sim.calibration.measurement import load_measurement
+    from lumped_gearbox import housing as hs
+
+    fs = 20000.0
+    t = np.arange(40000) / fs
+    m, fn, zeta = hs.HOUSING_MASS_KG, hs.HOUSING_FREQUENCY_HZ, hs.HOUSING_DAMPING_RATIO
+    k = m * (2 * math.pi * fn) ** 2
+    c = 2 * zeta * math.sqrt(k * m)
+    for f in (500.0, 2600.0, 6000.0):
+        w = 2 * math.pi * f
+        acc = hs.housing_acceleration(100.0 * np.sin(w * t), fs)[20000:]  # transient decayed
+        expected = 100.0 * w**2 / abs(k - m * w**2 + 1j * c * w)
+        amp = math.sqrt(2.0) * np.std(acc)
+        assert abs(amp - expected) < 0.01 * expected, (f, amp, expected)
+    rec = make_record(3000.0, 25.0, duration_s=0.1, housing=True)
+    meas = load_measurement(write_record(tmp_path / "h.csv", rec))
+    assert "bearing2_housing_ay" in meas.model_channels
+
+
+def test_eccentricity_is_followed_kinematically_at_shaft_rate():
+    """Far below every resonance the train follows a run-out rigidly: DTE 1x line = e (quasi-static)."""
+    e = 15e-6
+    r = run(
+        build(Gearbox(), 600.0, 25.0, [parse_fault(f"pinion_eccentricity:eccentricity_m={e}")], ste=False),
+        2.0,
+    )
+    x = r["dte"] - np.mean(r["dte"])
+    n = x.size
+    t = np.arange(n) / 20000.0
+    amp = 2.0 * abs(np.sum(x * np.exp(-2j * np.pi * 10.0 * t))) / n  # 600 rpm = 10 Hz, 20 whole periods
+    assert abs(amp - e) < 0.03 * e, amp
+
+
+def test_thermal_backlash_unchanged_when_housing_expands_like_the_gears():
+    """Uniform expansion of gears and housing is a similarity: the backlash just scales by 1 + a dT."""
+    from lumped_gearbox import thermal_half_backlash
+
+    gb = Gearbox(housing_expansion_per_c=1.17e-5)
+    assert thermal_half_backlash(gb, 225.0) == pytest.approx(35e-6 * (1 + 1.17e-5 * 200), rel=1e-12)
+    assert thermal_half_backlash(Gearbox(), 25.0) == pytest.approx(35e-6, rel=1e-12)
+    assert thermal_half_backlash(Gearbox(), 225.0) < 35e-6  # steel gears in a cast-iron housing close up

@@ -128,3 +128,38 @@ def test_case_carries_the_configuration() -> None:
     old = '{"temperature_c": 25.0, "bearing_type": "A#", "thermal_backlash": true, "overrides": []}'
     assert Case.from_json(old) == Case(25.0)
     assert all(m.gear_mass_in_mesh_matrix for m in build_config(c).meshes)
+
+
+def test_merge_windows_joins_gaps_below_the_threshold() -> None:
+    from gear_rotor_sim.analysis.reproduce import merge_windows
+
+    ws = [(14225.0, 14675.0), (12775.0, 13900.0), (14000.0, 14150.0), (15050.0, 15075.0)]
+    assert merge_windows(ws, 250.0) == [(12775.0, 14675.0), (15050.0, 15075.0)]
+    assert merge_windows(ws, 50.0) == sorted(ws)
+
+
+def test_reproduce_with_the_published_config(tmp_path) -> None:
+    import contextlib
+    import io
+    import json
+
+    from gear_rotor_sim import cli
+
+    def run(*extra: str) -> dict:
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            args = ["reproduce", "--level", "tiny", "--json", "--workers", "1", "--out", str(tmp_path)]
+            assert cli.main([*args, *extra]) == 0
+        return json.loads(buf.getvalue())
+
+    default = run()
+    published = run("--config", PUB)
+    assert "fig6_25c_main_chaotic_band_rpm" not in default
+    assert set(published) == set(default) | {"config", "fig6_25c_main_chaotic_band_rpm"}
+    assert published["config"] == PUB and len(published["fig6_25c_main_chaotic_band_rpm"]) == 2
+    assert (tmp_path / "figures" / "data" / f"reproduce_tiny_{PUB}.json").is_file()
+    png = tmp_path / "figures" / PUB / "fig6_bifurcation.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    report = (tmp_path / "REPRODUCTION.md").read_text(encoding="utf-8")
+    assert "## As-published configuration (`paper_sun2021_as_published`)" in report
+    assert "--config paper_sun2021_as_published" in report

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 import random
+import re
 import signal
 import subprocess
 import time
@@ -432,3 +433,15 @@ def test_invalid_parameters_exit_nonzero(override: str, expected: str) -> None:
     )
     assert proc.returncode == 2, (proc.returncode, proc.stderr[-2000:])
     assert "invalid parameters" in proc.stderr and expected in proc.stderr, proc.stderr[-2000:]
+
+
+def test_node_logs_its_start_up_time(experiment: Experiment) -> None:
+    m = re.search(
+        r"start-up: first message ([0-9.]+) s after the node constructor, "
+        r"([0-9.]+) s after the process started",
+        experiment.sim_log,
+    )
+    assert m, "no start-up line in the simulator log"
+    after_constructor, after_process = float(m.group(1)), float(m.group(2))
+    # the process starts before the node is constructed, and the first message came within the timeout
+    assert 0.0 < after_constructor <= after_process < STARTUP_TIMEOUT_S

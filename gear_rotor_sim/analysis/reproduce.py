@@ -54,6 +54,10 @@ from gear_rotor_sim.analysis.paper_data import (
 )
 from gear_rotor_sim.analysis.reproduction_report import main_band, write_report
 from gear_rotor_sim.analysis.sweep import grid_cases, run_sweep
+from gear_rotor_sim.examples import PAPER_CONFIGS
+
+#: The configuration of the main reproduction (the physically consistent model).
+DEFAULT_CONFIG = PAPER_CONFIGS[0]
 
 
 # ----------------------------------------------------------------------------------------------- plan
@@ -319,19 +323,31 @@ def _overlap(model: list[tuple[float, float]], paper: tuple[float, float]) -> tu
 
 # ----------------------------------------------------------------------------------------------- the run
 def compute(
-    plan: Plan, out: Path, workers: int | None, scheduler: str | None, progress: bool
+    plan: Plan,
+    out: Path,
+    workers: int | None,
+    scheduler: str | None,
+    progress: bool,
+    config: str = DEFAULT_CONFIG,
 ) -> dict[str, Any]:
-    """Run every study of ``plan``; save caches and figures under ``out``; return the numbers."""
+    """Run every study of ``plan``; save caches and figures under ``out``; return the numbers.
+
+    ``config`` names the paper configuration (:data:`gear_rotor_sim.examples.PAPER_CONFIGS`); a
+    non-default one writes its figures to ``out/figures/<config>/``, prefixes its caches with the
+    name and adds the finely resolved Fig 6a main band (:func:`refine_main_band`).
+    """
     from gear_rotor_sim.analysis import figures
 
     data_dir = _data_dir(out)
-    fig_dir = out / "figures"
-    r: dict[str, Any] = {"level": plan.name}
+    tag = "" if config == DEFAULT_CONFIG else f"{config}_"
+    fig_dir = out / "figures" if config == DEFAULT_CONFIG else out / "figures" / config
+    panels = {k: dataclasses.replace(c, config=config) for k, c in PANELS.items()}
+    r: dict[str, Any] = {"level": plan.name, "config": config}
 
     # Fig 6 ---------------------------------------------------------------------------------------
     bif: dict[str, BifurcationResult] = {}
     load_avg: dict[str, list[float]] = {}
-    for key, case in PANELS.items():
+    for key, case in panels.items():
         load_before = _loadavg()
         t0 = time.perf_counter()
         res = run_bifurcation(
@@ -345,7 +361,7 @@ def compute(
         res.wall_time_s = time.perf_counter() - t0
         load_avg[key] = [load_before, _loadavg()]
         res.meta["loadavg_1min_before_after"] = load_avg[key]
-        res.save(data_dir / f"fig6_{key}.npz")
+        res.save(data_dir / f"{tag}fig6_{key}.npz")
         bif[key] = res
     figures.plot_bifurcation(
         [bif[k] for k in PANELS],
@@ -377,19 +393,33 @@ def compute(
         }
     fig6["points"] = [(k, s, p, _label_at(bif[k], s)) for k, s, p in PAPER_POINTS]
     r["fig6"] = fig6
+    if config != DEFAULT_CONFIG:
+        main = {
+            c: max(mesh_modes(1.0, config=c), key=lambda m: m["mesh_energy"])
+            for c in (DEFAULT_CONFIG, config)
+        }
+        r["mesh_mode"] = {
+            "default_hz": main[DEFAULT_CONFIG]["f_hz"],
+            "default_rpm": main[DEFAULT_CONFIG]["speed_rpm"],
+            "config_hz": main[config]["f_hz"],
+            "config_rpm": main[config]["speed_rpm"],
+        }
+        r["fig6_25c_main_band_fine"] = refine_main_band(
+            panels["25C"], bif["25C"].chaotic_windows(merge_gap=1), plan.fig6
+        )
     if plan.single_speed_figures:
         _single_speed_figures(fig_dir, plan)
 
     # Fig 7 ---------------------------------------------------------------------------------------
     s7 = run_sweep(
-        grid_cases([25.0, 125.0, 225.0], ["A#"]),
+        _with_config(grid_cases([25.0, 125.0, 225.0], ["A#"]), config),
         np.array(plan.fig7_speeds),
         plan.sweep,
         workers=workers,
         scheduler=scheduler,
         progress=progress,
     )
-    s7.save(data_dir / "fig7_sweep.npz")
+    s7.save(data_dir / f"{tag}fig7_sweep.npz")
     figures.plot_bearing_force(
         s7, fig_dir / "fig7_bearing_force.png", paper_points=[(t, s, f) for t, s, f in PAPER_FIG7]
     )
@@ -414,14 +444,14 @@ def compute(
 
     # Figs 8-10 ------------------------------------------------------------------------------------
     s19 = run_sweep(
-        grid_cases([25.0, 125.0, 225.0], list(plan.fig8_bearings)),
+        _with_config(grid_cases([25.0, 125.0, 225.0], list(plan.fig8_bearings)), config),
         np.array([19000.0]),
         plan.sweep,
         workers=workers,
         scheduler=scheduler,
         progress=progress,
     )
-    s19.save(data_dir / "fig8_10_sweep_19000rpm.npz")
+    s19.save(data_dir / f"{tag}fig8_10_sweep_19000rpm.npz")
     bts = list(plan.fig8_bearings)
     figures.plot_displacement(
         s19,
@@ -521,6 +551,63 @@ def compute(
     return r
 
 
+def _with_config(cases: list[Case], config: str) -> list[Case]:
+    return [dataclasses.replace(c, config=config) for c in cases]
+
+
+def merge_windows(windows: list[tuple[float, float]], gap_rpm: float) -> list[tuple[float, float]]:
+    """Chaotic windows joined where the gap between them is below ``gap_rpm`` (sorted by start)."""
+    out: list[list[float]] = []
+    for a, b in sorted(windows):
+        if out and a - out[-1][1] < gap_rpm:
+            out[-1][1] = max(out[-1][1], b)
+        else:
+            out.append([a, b])
+    return [(float(a), float(b)) for a, b in out]
+
+
+def refine_main_band(
+    case: Case,
+    coarse_windows: list[tuple[float, float]],
+    settings: RunSettings,
+    step_rpm: float = 25.0,
+    margin_rpm: float = 750.0,
+    gap_rpm: float = 250.0,
+) -> dict[str, Any]:
+    """The Fig 6a main chaotic band with its edges resolved to ``step_rpm``.
+
+    The coarse main band (chaotic windows closer than ``gap_rpm`` joined, then the widest one above
+    11000 rpm) is re-swept from ``margin_rpm`` below to ``margin_rpm`` above on a ``step_rpm`` grid,
+    in one segment (speeds increasing, each run continued from the previous one, as the coarse
+    sweep does inside a segment). The band is the widest joined fine window overlapping the coarse
+    band; its edges are accurate to one ``step_rpm``.
+
+    Returns
+    -------
+    dict
+        ``band_rpm`` [low, high], ``coarse_band_rpm``, ``windows_rpm`` (fine, unjoined),
+        ``step_rpm``, ``gap_rpm``, ``grid_rpm`` [first, last], ``wall_time_s``.
+    """
+    lo, hi = main_band(merge_windows(coarse_windows, gap_rpm))
+    if not np.isfinite(lo):
+        return {"band_rpm": [float("nan"), float("nan")], "coarse_band_rpm": [lo, hi]}
+    speeds = np.arange(max(lo - margin_rpm, 500.0), hi + margin_rpm + step_rpm / 2, step_rpm)
+    t0 = time.perf_counter()
+    res = run_bifurcation(case, speeds, settings, workers=1, progress=False)
+    fine = res.chaotic_windows(merge_gap=1)
+    joined = [w for w in merge_windows(fine, gap_rpm) if w[1] >= lo and w[0] <= hi]
+    band = max(joined, key=lambda w: w[1] - w[0]) if joined else (float("nan"), float("nan"))
+    return {
+        "band_rpm": [band[0], band[1]],
+        "coarse_band_rpm": [lo, hi],
+        "windows_rpm": fine,
+        "step_rpm": step_rpm,
+        "gap_rpm": gap_rpm,
+        "grid_rpm": [float(speeds[0]), float(speeds[-1])],
+        "wall_time_s": time.perf_counter() - t0,
+    }
+
+
 def _loadavg() -> float:
     """1-minute load average (NaN where unavailable)."""
     try:
@@ -544,7 +631,7 @@ def iso_stiffness_ratio(temperature_c: float = 25.0) -> dict[str, float]:
 
 
 def mesh_modes(
-    scale: float, temperature_c: float = 25.0, min_fraction: float = 0.05
+    scale: float, temperature_c: float = 25.0, min_fraction: float = 0.05, config: str = DEFAULT_CONFIG
 ) -> list[dict[str, float]]:
     """Natural frequencies of the model linearised with the mean mesh stiffness, and the share of
     each mode's strain energy stored in the mesh (modes with share >= ``min_fraction``, < 20 kHz).
@@ -559,7 +646,9 @@ def mesh_modes(
 
     from gear_rotor_sim.analysis.bifurcation import build_system
 
-    system = build_system(Case(temperature_c, overrides=(("mesh_stiffness_scale", float(scale)),)))
+    system = build_system(
+        Case(temperature_c, overrides=(("mesh_stiffness_scale", float(scale)),), config=config)
+    )
     m = system.meshes[0]
     v = m.line_of_action
     f = system.free_dofs
@@ -783,6 +872,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
     parser.add_argument("--no-report", action="store_true", help="do not write REPRODUCTION.md")
     parser.add_argument(
+        "--config",
+        choices=PAPER_CONFIGS,
+        default=DEFAULT_CONFIG,
+        help="paper configuration (paper_sun2021_as_published: gear mass in Eq 20 and Eq 32, "
+        "docs/REPRODUCTION.md); a non-default one skips the sensitivity and stiffness studies, adds "
+        "the finely resolved Fig 6a band and the as-published section of REPRODUCTION.md",
+    )
+    parser.add_argument(
         "--report-only",
         action="store_true",
         help="rewrite REPRODUCTION.md from the saved numbers (no simulation)",
@@ -852,27 +949,65 @@ def _stiffness_json(r: dict[str, Any]) -> dict[str, Any] | None:
     }
 
 
+def printed_json(r: dict[str, Any]) -> dict[str, Any]:
+    """The object printed by ``--json``: :func:`summary_json`, plus ``config`` and
+    ``fig6_25c_main_chaotic_band_rpm`` (the finely resolved Fig 6a main band) for a non-default
+    configuration."""
+    s = summary_json(r)
+    fine = r.get("fig6_25c_main_band_fine")
+    if fine is not None:
+        s["config"] = r["config"]
+        s["fig6_25c_main_chaotic_band_rpm"] = fine["band_rpm"]
+    return s
+
+
+def _default_results(out: Path, level: str) -> dict[str, Any] | None:
+    """The saved default results REPRODUCTION.md is built from (full, else quick; tiny for tiny)."""
+    for lv in ("tiny",) if level == "tiny" else ("full", "quick"):
+        p = _data_dir(out) / f"reproduce_{lv}.json"
+        if p.is_file():
+            return json.loads(p.read_text(encoding="utf-8"))
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     level = args.level or ("quick" if args.quick else "full")
+    config = getattr(args, "config", DEFAULT_CONFIG)
     plan = Plan.level(level)
+    if config != DEFAULT_CONFIG:  # the studies of the default model are not repeated
+        plan = dataclasses.replace(
+            plan,
+            sensitivity=False,
+            single_speed_figures=False,
+            stiffness_scales=(),
+            stiffness_bifurcations=(),
+        )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    saved = _data_dir(out) / f"reproduce_{level}.json"
+    suffix = "" if config == DEFAULT_CONFIG else f"_{config}"
+    saved = _data_dir(out) / f"reproduce_{level}{suffix}.json"
     if args.report_only:
         r = json.loads(saved.read_text(encoding="utf-8"))
-        path = write_report(r, out, float(r["total_wall_s"]))
-        print(json.dumps(summary_json(r), default=float) if args.json else f"wrote {path}")
+        base = r if config == DEFAULT_CONFIG else _default_results(out, level)
+        path = write_report(base, out, float(base["total_wall_s"])) if base is not None else saved
+        print(json.dumps(printed_json(r), default=float) if args.json else f"wrote {path}")
         return 0
     t0 = time.perf_counter()
-    r = compute(plan, out, args.workers, args.scheduler, progress=True)
+    r = compute(plan, out, args.workers, args.scheduler, progress=True, config=config)
     total = time.perf_counter() - t0
     r["total_wall_s"] = total
     saved.write_text(json.dumps(r, indent=1, default=float), encoding="utf-8")
     if not args.no_report:
-        path = write_report(r, out, total)
-        if not args.json:
-            print(f"wrote {path} ({total:.0f} s)")
+        # REPRODUCTION.md is the default model's report; a non-default run rewrites it from the saved
+        # default results with its own section added (reproduction_report.published_section)
+        base = r if config == DEFAULT_CONFIG else _default_results(out, level)
+        if base is not None:
+            path = write_report(base, out, float(base["total_wall_s"]))
+            if not args.json:
+                print(f"wrote {path} ({total:.0f} s)")
+        elif not args.json:
+            print(f"saved {saved} ({total:.0f} s); no default results in {out} to write REPRODUCTION.md from")
     if args.json:
-        print(json.dumps(summary_json(r), default=float))
+        print(json.dumps(printed_json(r), default=float))
     sys.stdout.flush()
     return 0

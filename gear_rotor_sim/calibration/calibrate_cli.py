@@ -4,16 +4,24 @@ Loads the measurement (CSV + sidecar, MCAP, or .mat with a mapping; the CWRU fil
 mapping), runs the model at the declared operating point, traces the residual to the effect library,
 and prints a summary, the JSON object (``--json``: one object with ``effects`` in the order found,
 ``error_before``, ``error_after`` and per-channel detail) and/or writes a report directory.
+
+Exit status: 0 calibrated; 2 the measurement or an argument was refused (one line on stderr naming
+the file, column or field, time and the allowed range); 3 the calibration produced a non-finite
+error (reported on stderr, the JSON still printed with ``--json``: never a silent null result).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
 from gear_rotor_sim.calibration.measurement import MeasurementError, load_measurement
+
+EXIT_INVALID = 2
+EXIT_NON_FINITE = 3
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -90,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
             m = m.segment(0.0, duration)
     except (MeasurementError, ValueError) as exc:
         print(f"gear-rotor-sim calibrate: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INVALID
     if args.gearbox:
         m.gearbox = args.gearbox
     for issue in m.issues:
@@ -110,7 +118,17 @@ def run(args: argparse.Namespace) -> int:
         result = cal.run()
     except (ValueError, KeyError) as exc:
         print(f"gear-rotor-sim calibrate: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INVALID
+    if not (math.isfinite(result.error_before) and math.isfinite(result.error_after)):
+        print(
+            f"gear-rotor-sim calibrate: {path}: non-finite error (before {result.error_before}, "
+            f"after {result.error_after}); the measurement or the model overflowed; data issues: "
+            f"{m.issues or 'none'}",
+            file=sys.stderr,
+        )
+        if args.json:
+            print(json.dumps(result_json(result)))
+        return EXIT_NON_FINITE
     if args.report:
         paths = write_report(result, args.report)
         log(f"report: {paths['markdown']}")

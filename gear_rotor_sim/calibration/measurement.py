@@ -28,6 +28,7 @@ from __future__ import annotations
 import csv
 import fnmatch
 import re
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -98,6 +99,30 @@ ROTATIONS = ("theta_x", "theta_y", "theta_z")
 _SIDECAR_KEYS = {"sample_rate_hz", "operating_point", "gearbox", "channels", "description", "files", "format"}
 _OP_KEYS = {"speed_rpm", "temperature_c", "output_torque_nm"}
 _CHANNEL_KEYS = {"column", "key", "quantity", "unit", "bearing", "node", "direction", "name"}
+
+
+#: Largest magnitude of a measured sample per dimension (SI), beyond any vibration sensor's range:
+#: a sample beyond it is refused (a sensor glitch, a wrong unit). 1 m of DTE or displacement,
+#: 1e9 N, 1e4 m/s, 1e7 m/s^2 (~1e6 g, ten times a shock accelerometer's range), 1e6 rad,
+#: 1e6 rad/s, 1e9 rad/s^2.
+PHYSICAL_LIMITS: dict[str, float] = {
+    "length": 1.0,
+    "force": 1e9,
+    "velocity": 1e4,
+    "acceleration": 1e7,
+    "angle": 1e6,
+    "angular_velocity": 1e6,
+    "angular_acceleration": 1e9,
+}
+#: A finite sample more than this many robust scales (1.4826 x MAD) from the channel's median is
+#: refused as non-physical (no sensor has a dynamic range of 10^6 over its noise-plus-signal level).
+GLITCH_SCALES = 1e6
+#: Isolated spikes: runs of at most SPIKE_MAX_SAMPLES samples more than SPIKE_SCALES robust scales
+#: from the median, with normal samples on both sides, are replaced by linear interpolation and
+#: reported in ``Measurement.issues`` (a Gaussian signal exceeds 100 scales with probability ~0; the
+#: impacts of a bearing defect ring over many samples and stay far below it in the CWRU records).
+SPIKE_SCALES = 100.0
+SPIKE_MAX_SAMPLES = 2
 
 
 class MeasurementError(ValueError):
@@ -354,12 +379,35 @@ def parse_operating_point(d: Any, src: str, file_values: Mapping[str, float] | N
     return OperatingPoint(float(vals["speed_rpm"]), float(vals["temperature_c"]), vals["output_torque_nm"])
 
 
+def _require_text(path: Path, expected: str) -> None:
+    """MeasurementError naming the file and ``expected`` when it is not UTF-8 text (binary data)."""
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as exc:
+        raise _err(str(path), f"cannot read: {exc.strerror}") from None
+    nul = raw.find(b"\x00")
+    bad = nul
+    if bad < 0:
+        try:
+            raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            bad = exc.start
+    if bad >= 0:
+        raise _err(str(path), f"not a text file (byte 0x{raw[bad]:02x} at offset {bad}); expected {expected}")
+
+
+CSV_FORM = "a UTF-8 CSV file (header row 'time_s,<column>,...') with a YAML sidecar of the same stem"
+SIDECAR_FORM = "a UTF-8 YAML sidecar (sample_rate_hz, operating_point, gearbox, channels)"
+
+
 def _read_yaml(path: Path) -> dict[str, Any]:
+    _require_text(path, SIDECAR_FORM)
     try:
         with open(path, encoding="utf-8") as fh:
             d = yaml.safe_load(fh)
     except yaml.YAMLError as exc:
-        raise _err(str(path), f"not valid YAML: {exc}") from None
+        raise _err(str(path), f"not valid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(d, dict):
         raise _err(str(path), "expected a mapping at the top level")
     return d
@@ -417,7 +465,9 @@ def _finish(
         if np.any(dt <= 0):
             i = int(np.flatnonzero(dt <= 0)[0])
             raise _err(
-                src, f"time_s: not strictly increasing at row {i + 3} ({time[i]!r} -> {time[i + 1]!r})"
+                src,
+                f"time_s: not strictly increasing at row {i + 3} "
+                f"({float(time[i])!r} -> {float(time[i + 1])!r})",
             )
         nominal = 1.0 / fs
         med = float(np.median(dt))
@@ -438,14 +488,16 @@ def _finish(
     for b in breaks or []:
         problems.append(f"discontinuity (lost chunk) before sample {b}")
         cut[b] = True
+    _check_magnitudes(src, data, channels, time if time is not None else t0 + np.arange(n) / fs)
     bad = np.zeros(n, dtype=bool)
     for k, c in enumerate(channels):
         runs = nan_runs(data[:, k])
         if runs:
             longest = max(r[1] for r in runs)
             first = runs[0][0]
+            kind = "NaN/inf" if np.isinf(data[:, k]).any() else "NaN"
             problems.append(
-                f"column {c.column!r}: {len(runs)} NaN run(s), {sum(r[1] for r in runs)} samples, "
+                f"column {c.column!r}: {len(runs)} {kind} run(s), {sum(r[1] for r in runs)} samples, "
                 f"longest {longest}, first at t = {t0 + first / fs:.6g} s"
             )
             bad |= ~np.isfinite(data[:, k])
@@ -477,7 +529,91 @@ def _finish(
         )
         data = data[best[0] : best[1]]
         t0 = float(time[best[0]]) if time is not None else t0 + best[0] / fs
+    data = _replace_spikes(data, channels, t0, fs, issues)
     return Measurement(src, fs, float(t0), np.ascontiguousarray(data, float), channels, op, gearbox, issues)
+
+
+def _dimension(c: ChannelSpec) -> str:
+    _, trans, rot = QUANTITIES[c.quantity]
+    return rot if c.direction in ROTATIONS and rot else trans
+
+
+def robust_scale(x: np.ndarray) -> tuple[float, float]:
+    """Median and robust standard deviation (1.4826 x median absolute deviation) of the finite samples."""
+    f = x[np.isfinite(x)]
+    if f.size == 0:
+        return 0.0, 0.0
+    med = float(np.median(f))
+    return med, 1.4826 * float(np.median(np.abs(f - med)))
+
+
+def _check_magnitudes(src: str, data: np.ndarray, channels: tuple[ChannelSpec, ...], t: np.ndarray) -> None:
+    """Refuse samples beyond :data:`PHYSICAL_LIMITS` or :data:`GLITCH_SCALES` robust scales (SI data)."""
+    for k, c in enumerate(channels):
+        x = data[:, k]
+        finite = np.isfinite(x)
+        dim = _dimension(c)
+        limit = PHYSICAL_LIMITS[dim]
+        over = np.flatnonzero(finite & (np.abs(x) > limit))
+        what = f"beyond the physical limit {limit:g} {SI_UNIT[dim]} of a {dim} channel"
+        if over.size == 0:
+            med, scale = robust_scale(x)
+            if scale > 0:
+                over = np.flatnonzero(finite & (np.abs(x - med) > GLITCH_SCALES * scale))
+                what = (
+                    f"more than {GLITCH_SCALES:g} robust scales ({scale:.3g} {SI_UNIT[dim]}, "
+                    f"1.4826 x MAD) from the median {med:.3g} {SI_UNIT[dim]}"
+                )
+        if over.size:
+            i = int(over[0])
+            raise _err(
+                src,
+                f"column {c.column!r}: {over.size} non-physical sample(s), first {x[i]:.6g} {SI_UNIT[dim]} "
+                f"at t = {t[i]:.6g} s (sample {i}), {what}; a sensor glitch? remove or repair those samples",
+            )
+
+
+def _replace_spikes(
+    data: np.ndarray, channels: tuple[ChannelSpec, ...], t0: float, fs: float, issues: list[str]
+) -> np.ndarray:
+    """Isolated spikes (runs of at most :data:`SPIKE_MAX_SAMPLES` samples more than
+    :data:`SPIKE_SCALES` robust scales from the median) replaced by linear interpolation between
+    their neighbours and reported in ``issues``; longer excursions are kept and reported."""
+    out = data
+    for k, c in enumerate(channels):
+        x = data[:, k]
+        med, scale = robust_scale(x)
+        if scale <= 0:
+            continue
+        far = np.abs(x - med) > SPIKE_SCALES * scale
+        if not far.any():
+            continue
+        d = np.diff(np.concatenate([[0], far.astype(np.int8), [0]]))
+        starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+        spikes = [
+            (s, e)
+            for s, e in zip(starts, ends, strict=True)
+            if e - s <= SPIKE_MAX_SAMPLES and s > 0 and e < x.size
+        ]
+        kept = len(starts) - len(spikes)
+        if spikes:
+            if out is data:
+                out = data.copy()
+            for s, e in spikes:
+                out[s:e, k] = np.interp(np.arange(s, e), [s - 1, e], [x[s - 1], x[e]])
+            times = ", ".join(f"{t0 + s / fs:.6g}" for s, _ in spikes[:5])
+            times += ", ..." if len(spikes) > 5 else ""
+            issues.append(
+                f"column {c.column!r}: {len(spikes)} isolated spike(s) (<= {SPIKE_MAX_SAMPLES} samples, "
+                f"> {SPIKE_SCALES:g} robust scales from the median) replaced by linear interpolation "
+                f"at t = {times} s"
+            )
+        if kept:
+            issues.append(
+                f"column {c.column!r}: {kept} excursion(s) beyond {SPIKE_SCALES:g} robust scales kept "
+                f"(longer than {SPIKE_MAX_SAMPLES} samples or at an end of the record)"
+            )
+    return out
 
 
 def _si(data: np.ndarray, channels: tuple[ChannelSpec, ...]) -> np.ndarray:
@@ -519,6 +655,7 @@ def load_csv(
     src = str(path)
     if not path.exists():
         raise _err(src, "file not found")
+    _require_text(path, CSV_FORM)
     if isinstance(sidecar, Mapping):
         meta, msrc = dict(sidecar), f"{src} (sidecar)"
     else:
@@ -544,15 +681,32 @@ def load_csv(
         if c.column not in header:
             raise _err(src, f"channels[{i}].column: {c.column!r} missing from the CSV header {header}")
         idx.append(header.index(c.column))
-    try:
-        raw = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, invalid_raise=True)
-    except ValueError as exc:
-        raise _err(src, f"malformed row: {exc}") from None
-    raw = np.atleast_2d(raw)
+    raw = _read_numbers(path, src)
     if raw.shape[1] != len(header):
         raise _err(src, f"rows have {raw.shape[1]} fields, header has {len(header)}")
     data = _si(raw[:, idx], chans)
     return _finish(src, raw[:, 0], 0.0, fs, data, chans, op, str(meta["gearbox"]), nan_policy, [])
+
+
+def _read_numbers(path: Path, src: str) -> np.ndarray:
+    """The CSV's data rows as floats: 'nan'/'inf' and empty fields (missing, NaN) are numbers, any
+    other text is an error naming its row and column."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # numpy's "empty input" warning
+            raw = np.loadtxt(path, delimiter=",", skiprows=1, dtype=float, ndmin=2)
+    except ValueError as exc:
+        if "could not convert string '' " not in str(exc):
+            raise _err(src, f"malformed row: {exc}") from None
+        try:  # empty fields: missing samples (NaN), reported by the NaN-run checks
+            raw = np.atleast_2d(
+                np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, invalid_raise=True)
+            )
+        except ValueError as exc2:
+            raise _err(src, f"malformed row: {exc2}") from None
+    if raw.size == 0:
+        raise _err(src, "no data rows after the header (at least 2 samples are required)")
+    return raw
 
 
 def write_csv(

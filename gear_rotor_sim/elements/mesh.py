@@ -289,6 +289,7 @@ def build_mesh_coupling(
     pinion_bore_diameter: float | None = None,
     gear_bore_diameter: float | None = None,
     n_points: int = 512,
+    pinion_spin: float = 1.0,
 ) -> MeshCoupling:
     """Build the solver's view of one spur mesh at a uniform gear temperature (Eqs 13-29).
 
@@ -317,6 +318,12 @@ def build_mesh_coupling(
         ``mesh_cfg.gear_bore_diameter_m``.
     n_points : int
         Mesh-phase grid of the stiffness table.
+    pinion_spin : float
+        Sign of the pinion's spin about +z. The module's geometry (the pinion driving with positive
+        speed) holds for +1; for -1 (e.g. the second stage of a train, whose pinion shaft turns
+        negative) the pair is its mirror image in the plane of the centre line (y -> -y; the
+        rotations theta_x, theta_z change sign), so that a driving pinion again loads the drive
+        flank (delta > b*) and the sliding directions of Eq 29 follow.
 
     Returns
     -------
@@ -381,6 +388,12 @@ def build_mesh_coupling(
         basis = np.zeros((ndof, 1))
         coef = np.ones((table.phase.size, 1))
     basis[:, 0] = -v_global
+    if pinion_spin < 0.0:  # mirror image: y, theta_x, theta_z of both gears change sign
+        mirror = np.ones(ndof)
+        for node0 in (pinion_node0, gear_node0):
+            mirror[6 * node0 + np.array([1, 3, _THETA_Z])] = -1.0
+        v_global = v_global * mirror
+        basis = basis * mirror[:, None]
     jumps = table_jumps(pair, float(temperature_c), mu)
     coef_interp = _periodic_interpolator(table.phase, coef)
     stiff_interp = _periodic_interpolator(table.phase, table.stiffness)

@@ -386,6 +386,17 @@ def _mcap_continuity(recs: list[tuple[int, int, int]]) -> tuple[int, int]:
     return seq, idx
 
 
+def startup_line(log: Path) -> str:
+    """The simulator node's ``start-up:`` log line (first message after the constructor / process start)."""
+    try:
+        for line in log.read_text(encoding="utf-8", errors="replace").splitlines():
+            if "start-up:" in line:
+                return line.split("start-up:", 1)[1].strip()
+    except OSError:
+        pass
+    return "(no start-up line yet)"
+
+
 def run_demo(
     out_dir: Path,
     real_time_factor: float,
@@ -424,6 +435,7 @@ def run_demo(
     ]
     print(f"[demo] ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}; starting {executable('simulator', env)}")
     print(f"[demo]   --params-file {params}, recording to {mcap_path}; logs in {out_dir}")
+    launched = time.monotonic()
     sim = start_process("simulator", sim_args, env, out_dir / "simulator.log")
     mon = start_process(
         "monitor",
@@ -441,6 +453,10 @@ def run_demo(
         t_start = probe.sim_time()
         print(
             f"[demo] node up after {time.monotonic() - wall0:.1f} s; streaming from sim time {t_start:.2f} s"
+        )
+        first_message_s = time.monotonic() - launched
+        print(
+            f"[demo] start-up: first message received {first_message_s:.1f} s after launching the simulator"
         )
         # phase 1: 3000 rpm, 25 C
         t_speed = t_start + 2.0
@@ -472,6 +488,7 @@ def run_demo(
         rc_mon = stop_process(mon, signal.SIGINT)
         probe.close()
     print(f"[demo] simulator exited with {rc_sim} (SIGINT), monitor with {rc_mon}; {wall:.1f} s wall")
+    print(f"[demo] start-up (simulator log): {startup_line(out_dir / 'simulator.log')}")
     if status:
         return status
 

@@ -20,6 +20,8 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from gear_rotor_sim.setpoints import check_setpoint  # shared with gear-rotor-sim serve
+
 STREAM_NAMES: tuple[str, ...] = ("dte", "bearing_forces", "displacements", "accelerations")
 DOF_CHOICES: tuple[str, ...] = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
 BEARING_TYPE_CHOICES: tuple[str, ...] = ("", "A#", "B#", "C#")
@@ -386,33 +388,6 @@ def broadcast(values: Sequence[float], n: int, name: str, fill: float = 0.0) -> 
     if len(vals) != n:
         raise ParamError(f"{name}: {len(vals)} values given; expected none, one, or one per channel ({n})")
     return vals
-
-
-def check_setpoint(kind: str, value: float, values: dict[str, Any]) -> str | None:
-    """Why a speed or temperature setpoint is refused, or None when it is valid.
-
-    Parameters
-    ----------
-    kind : {"speed_rpm", "temperature_c"}
-    value : float
-        The requested target.
-    values : dict
-        Current parameter values (for the ``limits.*`` parameters).
-    """
-    if not math.isfinite(value):
-        return f"{kind} setpoint {value} is not finite"
-    if kind == "speed_rpm":
-        hi = float(values["limits.speed_rpm_max"])
-        if value < 0.0:
-            return f"speed_rpm setpoint {value} is negative"
-        if value > hi:
-            return f"speed_rpm setpoint {value} is above limits.speed_rpm_max = {hi}"
-        return None
-    lo = float(values["limits.temperature_c_min"])
-    hi = float(values["limits.temperature_c_max"])
-    if not lo <= value <= hi:
-        return f"temperature_c setpoint {value} is outside [{lo}, {hi}] (limits.temperature_c_min/max)"
-    return None
 
 
 def check_simulator_values(values: dict[str, Any]) -> None:

@@ -199,6 +199,21 @@ def fill_chunk(msg: VibrationChunk, fields: dict) -> VibrationChunk:
 
 #: Blocks the stepping thread may run ahead of the output thread (publishing and recording).
 _OUTPUT_QUEUE = 2
+
+
+def process_age_s() -> float | None:
+    """Seconds since this process started (Linux ``/proc/self/stat``); None where unavailable."""
+    try:
+        with open("/proc/self/stat", encoding="ascii") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        start_ticks = int(fields[19])  # field 22, starttime, in clock ticks since boot
+        import os
+
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - start_ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
 #: Interpreter-lock switch interval of the node process (Python's default is 5 ms).
 GIL_SWITCH_INTERVAL_S = 2e-4
 
@@ -212,6 +227,9 @@ class SimulatorNode(Node):
     """
 
     def __init__(self) -> None:
+        self._t_constructed = time.monotonic()
+        #: Seconds from the constructor to the first published message (None until then); logged.
+        self.startup_s: float | None = None
         super().__init__(NODE_NAME)
         self._check_unknown_overrides()
         self._specs = spec_by_name(SIMULATOR_PARAMETERS)
@@ -601,12 +619,22 @@ class SimulatorNode(Node):
             seq = sequence[spec.name]
             msg = fill_chunk(VibrationChunk(), chunk_fields(sub, spec, seq))
             self._stream_pubs[spec.name].publish(msg)
+            if self.startup_s is None:
+                self._log_startup()
             if self._recorder is not None:
                 self._write_recording(sub, spec, seq)
             sequence[spec.name] = seq + 1
         if self._values["publish_clock"]:
             clock.clock.sec, clock.clock.nanosec = time_to_stamp(t_end)
             self._clock_pub.publish(clock)
+
+    def _log_startup(self) -> None:
+        self.startup_s = time.monotonic() - self._t_constructed
+        age = process_age_s()
+        self.get_logger().info(
+            f"start-up: first message {self.startup_s:.2f} s after the node constructor"
+            + (f", {age:.2f} s after the process started" if age is not None else "")
+        )
 
     def _simulate(self, out_q: queue.Queue) -> None:
         expected_index: int | None = None

@@ -32,7 +32,7 @@ import scipy.linalg as sla
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from gear_rotor_sim.solver import kernels, mesh_kernel
+from gear_rotor_sim.solver import kernels, mesh_kernel, meshes_kernel
 from gear_rotor_sim.system_data import DOF_NAMES, AssembledSystem
 
 #: Relative speed quantum of the eigenbasis cache: the gyroscopic matrix is taken at the speed rounded
@@ -106,15 +106,16 @@ class ChannelSpec:
 
 _NODE_RE = re.compile(r"^node(\d+)_(v|a)?(x|y|z|theta_x|theta_y|theta_z)$")
 _BEARING_RE = re.compile(r"^bearing(\d+)_f(x|y|z)$")
-_MESH_RE = re.compile(r"^(dte|mesh_force)(\d*)$")
+_MESH_RE = re.compile(r"^(?:mesh(\d+)_)?(dte|mesh_force|force)$")
 
 
 def available_channels(system: AssembledSystem) -> list[tuple[str, str]]:
     """All channel names of a system with their SI units."""
     out: list[tuple[str, str]] = []
+    if system.meshes:  # the first mesh's, and every mesh's by its 1-based number in ``meshes:``
+        out += [("dte", "m"), ("mesh_force", "N")]
     for i in range(len(system.meshes)):
-        suffix = "" if i == 0 else str(i + 1)
-        out += [(f"dte{suffix}", "m"), (f"mesh_force{suffix}", "N")]
+        out += [(f"mesh{i + 1}_dte", "m"), (f"mesh{i + 1}_force", "N")]
     for b in system.bearings:
         out += [(f"bearing{b.number}_f{c}", "N") for c in "xyz"]
     for node in range(1, system.n_nodes + 1):
@@ -132,14 +133,14 @@ def parse_channels(system: AssembledSystem, names: Sequence[str]) -> list[Channe
     for name in names:
         if name not in units:
             raise ValueError(
-                f"channels: {name!r} is not available; allowed: dte, mesh_force "
-                "(dte2... for further meshes), "
+                f"channels: {name!r} is not available; allowed: dte, mesh_force (the first mesh), "
+                f"mesh{{1..{len(system.meshes)}}}_dte, mesh{{1..{len(system.meshes)}}}_force, "
                 f"bearing{{1..{len(system.bearings)}}}_f{{x,y,z}}, node{{1..{system.n_nodes}}}_[v|a]"
                 "{x,y,z,theta_x,theta_y,theta_z}"
             )
         if mm := _MESH_RE.match(name):
-            i = int(mm.group(2)) - 1 if mm.group(2) else 0
-            specs.append(ChannelSpec(name, units[name], "dte" if mm.group(1) == "dte" else "force", mesh=i))
+            i = int(mm.group(1)) - 1 if mm.group(1) else 0
+            specs.append(ChannelSpec(name, units[name], "dte" if mm.group(2) == "dte" else "force", mesh=i))
         elif mb := _BEARING_RE.match(name):
             specs.append(
                 ChannelSpec(
@@ -672,6 +673,154 @@ def fast_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None 
     )
 
 
+@dataclass
+class MeshesMap:
+    """Arrays of :func:`meshes_kernel.run_chunk_meshes` (any number of table meshes, modal map),
+    grouped by role as the kernel takes them (see its module docstring).
+
+    Active force columns: mesh i owns ``i nb .. i nb + nb - 1`` (``u_i`` = the compensation column
+    ``+V_i``, which also carries the line-of-action part ``-V_i F_i``, then the friction basis),
+    then the effects.
+    """
+
+    cols: np.ndarray  # LinearModel column index of each active column
+    modal: tuple  # (zr, zi) are filled per chunk; (rr, ri, c0r, c0i, swr, swi, crr, cri)
+    n_forced: int
+    mesh: tuple  # (pq, pq_static, pd, pv, mesh_par)
+    tables: tuple  # (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump)
+    cstack: np.ndarray
+    dfeed_static: np.ndarray
+
+
+def _output_stack(
+    lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None, cols: np.ndarray, ucol: list[int]
+) -> np.ndarray:
+    """Output matrix ``[z_r, z_i, beta] -> channels`` of the fast kernels.
+
+    With ``specs`` every channel in order (``dte_i = V_i x``, mesh force ``F_i = kbar_i delta_i + c_i
+    delta_i' - u_i``, both linear in the modal state and the active column amplitudes; ``ucol[i]`` is
+    the active column of ``u_i``); without, or with no state-row channel, only the state rows.
+    """
+    npad = mp.nmode
+    nk = mp.basis.lam.size
+    n = lin.nfree
+    nrow = mp.outr.shape[0]
+    rows = np.zeros((2 * npad + cols.size, nrow))
+    if nrow:
+        rows[:npad] = mp.outr.T
+        rows[npad : 2 * npad] = -mp.outi.T
+        rows[2 * npad :] = mp.dfeed[:, cols].T
+    if specs is None or nrow == 0:
+        return rows
+    cstack = np.zeros((rows.shape[0], len(specs)))
+    o = 0
+    for i, sp in enumerate(specs):
+        if sp.kind == "row":
+            cstack[:, i] = rows[:, o]
+            o += 1
+            continue
+        vd = np.zeros(npad, dtype=complex)
+        vv = np.zeros(npad, dtype=complex)
+        vd[:nk] = lin.V[sp.mesh] @ mp.basis.phi[:n]
+        vv[:nk] = lin.V[sp.mesh] @ mp.basis.phi[n:]
+        if sp.kind == "force":
+            vd = lin.kbar[sp.mesh] * vd + lin.cmesh[sp.mesh] * vv
+            cstack[2 * npad + ucol[sp.mesh], i] = -1.0
+        cstack[:npad, i] = vd.real
+        cstack[npad : 2 * npad, i] = -vd.imag
+    return cstack
+
+
+def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None = None) -> MeshesMap | None:
+    """The multi-mesh fast-path arrays of a modal step map, or None if the path does not apply.
+
+    Applies when every mesh has uniform tables of one common length and force basis width, whose first
+    basis column is ``-V`` and first coefficient 1 (Eq 22 / Eq 29).
+    """
+    nm = lin.nm
+    if mp.dense or nm == 0:
+        return None
+    meshes = lin.system.meshes
+    nb = lin.nb
+    nt = None
+    for i, mc in enumerate(meshes):
+        if mc.table_stiffness is None or mc.table_coefficients is None:
+            return None
+        cb = lin.col_basis[i]
+        if np.any(cb[:nb] < 0) or not np.array_equal(lin.Fc[:, cb[0]], -lin.Fc[:, lin.col_comp[i]]):
+            return None
+        tc = np.asarray(mc.table_coefficients, float).reshape(mc.table_stiffness.size, -1)
+        if nt is None:
+            nt = mc.table_stiffness.size
+        if mc.table_stiffness.size != nt or tc.shape[1] != nb or not np.all(tc[:, 0] == 1.0):
+            return None
+    assert nt is not None
+    cols_l: list[int] = []
+    ucol: list[int] = []
+    for i in range(nm):
+        ucol.append(len(cols_l))
+        cols_l += [int(lin.col_comp[i]), *(int(c) for c in lin.col_basis[i, 1:nb])]
+    cols = np.array([*cols_l, *range(lin.col_eff0, lin.m)], dtype=np.int64)
+    nf = mp.basis.n_forced if mp.basis.n_forced >= 0 else mp.basis.lam.size
+    pq = mp.pq[:, cols]
+    hd = pq[:nm, ucol]
+    hv = pq[nm:, ucol]
+    emat = np.eye(nm) - lin.kbar[:, None] * hd - lin.cmesh[:, None] * hv
+    einv = np.linalg.inv(emat)
+    tab_kf = np.zeros((nm, nt))
+    tab_cf = np.zeros((nm, nt, nb))
+    tab_k = np.zeros((nm, nt))
+    tab_c = np.zeros((nm, nt, nb))
+    jflag = np.zeros((nm, nt), dtype=np.int8)
+    split = []
+    for i, mc in enumerate(meshes):
+        tc = np.asarray(mc.table_coefficients, float).reshape(nt, nb)
+        tab_kf[i] = mc.table_stiffness
+        tab_cf[i] = tc
+        split.append(split_table_jumps(np.asarray(mc.table_stiffness, float), tc, mc.table_jumps))
+    nj = max(1, max(sp[2].size for sp in split))
+    jump_p = np.zeros((nm, nj))
+    jump_k = np.zeros((nm, nj))
+    jump_c = np.zeros((nm, nj, nb))
+    n_jump = np.zeros(nm, dtype=np.int64)
+    for i, (kc, cc, jp, jk, jc) in enumerate(split):
+        tab_k[i] = kc
+        tab_c[i] = cc
+        n_jump[i] = jp.size
+        jump_p[i, : jp.size] = jp
+        jump_k[i, : jp.size] = jk
+        jump_c[i, : jp.size] = jc
+        jflag[i] = _jump_intervals(nt, jp)
+    mesh_par = np.array(
+        [[lin.kbar[i], lin.cmesh[i], lin.cmesh[i], lin.bstar[i], mc.te_amplitude, mc.te_phase]
+         for i, mc in enumerate(meshes)]
+    )  # fmt: skip
+    modal = (
+        mp.rr,
+        mp.ri,
+        aligned(2.0 * mp.swr[0]),
+        aligned(2.0 * mp.swi[0]),
+        aligned(mp.swr[cols]),
+        aligned(mp.swi[cols]),
+        mp.crr,
+        mp.cri,
+    )
+    mesh = (aligned(pq), aligned(2.0 * mp.pq[:, 0]), aligned(hd @ einv), aligned(hv @ einv), mesh_par)
+    tables = (
+        aligned(tab_kf), aligned(tab_cf), jflag, aligned(tab_k), aligned(tab_c),
+        jump_p, jump_k, jump_c, n_jump,
+    )  # fmt: skip
+    return MeshesMap(
+        cols,
+        modal,
+        int(nf),
+        mesh,
+        tables,
+        aligned(_output_stack(lin, mp, specs, cols, ucol)),
+        aligned(_static_feed(mp, specs)),
+    )
+
+
 # ----------------------------------------------------------------------------------------------
 # state carried between chunks and models
 
@@ -961,8 +1110,10 @@ class NewmarkStepper:
     disable_fast : bool
         Always use the general kernel (tests of the fast single-mesh path against it).
     locate_events : bool
-        Fast path: split steps at the mesh-table jumps and contact changes inside them (docs/solver.md);
-        False takes every event at the step instants, as the general kernel does.
+        Single-mesh fast path: split steps at the mesh-table jumps and contact changes inside them
+        (docs/solver.md); False takes every event at the step instants, as the other kernels do.
+    meshes_kernel_for_one : bool
+        Run a single-mesh system through the multi-mesh kernel too (tests of one against the other).
     """
 
     def __init__(
@@ -974,6 +1125,7 @@ class NewmarkStepper:
         cache_size: int = 16,
         disable_fast: bool = False,
         locate_events: bool = False,
+        meshes_kernel_for_one: bool = False,
     ) -> None:
         self.system = system
         self.specs = list(specs)
@@ -990,7 +1142,9 @@ class NewmarkStepper:
         self.contact = np.zeros(self.lin.nm, dtype=np.int64)
         self.n_mesh_fail = 0
         self.fast: FastMap | None = None
+        self.fastm: MeshesMap | None = None
         self.disable_fast = disable_fast
+        self.meshes_kernel = meshes_kernel_for_one
         self.locate_events = bool(locate_events)
         self.n_substeps = 0
         self._hbuf = np.zeros((0, 0))
@@ -1012,7 +1166,12 @@ class NewmarkStepper:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
         if self.map is None or self.map.basis.omega != omega or self.map.dt != dt:
             self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
-            self.fast = None if self.disable_fast else fast_map(self.lin, self.map, self.specs)
+            self.fast = self.fastm = None
+            if not self.disable_fast:
+                if self.lin.nm == 1 and not self.meshes_kernel:
+                    self.fast = fast_map(self.lin, self.map, self.specs)
+                if self.fast is None:
+                    self.fastm = meshes_map(self.lin, self.map, self.specs)
         self.load_state(state)
 
     def load_state(self, st: SolverState) -> None:
@@ -1042,6 +1201,10 @@ class NewmarkStepper:
         if self.fast is not None:
             self.beta_act = aligned(beta[self.fast.cols])
             self.beta_act[0] -= st.coef[0, 0] * st.force[0]  # u also carries the -V part
+        elif self.fastm is not None:
+            self.beta_act = aligned(beta[self.fastm.cols])
+            for i in range(lin.nm):
+                self.beta_act[i * lin.nb] -= st.coef[i, 0] * st.force[i]  # u_i also carries -V_i F_i
         self.ypred = aligned((mp.crr @ self.zr - mp.cri @ self.zi) if lin.nm else np.zeros(0))
         self.contact = st.contact.astype(np.int64).copy()
 
@@ -1089,6 +1252,8 @@ class NewmarkStepper:
         lin = self.lin
         if self.fast is not None:
             return self._run_fast(t, angle, speed, st, bound)
+        if self.fastm is not None:
+            return self._run_meshes(t, angle, speed, st, bound)
         kt, et, edt, coef, ampl = excitation(lin, t, angle, speed, self.effects)
         n = kt.shape[0]
         no = len(self.row_index)
@@ -1240,6 +1405,84 @@ class NewmarkStepper:
         # keep the general-kernel carry consistent (a later switch of path or basis reloads from st)
         exc = (kt[:, None], et[:, None], edt[:, None], coef[:, None, :], ampl)
         return ch, dte, dted, fm, states, exc
+
+    def _run_meshes(
+        self, t: np.ndarray, angle: np.ndarray, speed: np.ndarray, st: SolverState, bound: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+        """:meth:`run` through :func:`meshes_kernel.run_chunk_meshes` (table meshes, modal map)."""
+        fm_ = self.fastm
+        mp = self.map
+        assert fm_ is not None and mp is not None
+        lin = self.lin
+        system = self.system
+        nm = lin.nm
+        n = t.size - 2
+        known = slice(0, n + 1)  # the carried step and the new steps
+        cyc_rate = np.array(
+            [m.pinion_teeth * abs(float(system.shaft_speed_ratios[m.pinion_shaft])) / (2.0 * np.pi)
+             for m in system.meshes]
+        )  # fmt: skip
+        cyc = angle[known, None] * cyc_rate[None, :]
+        phase = np.ascontiguousarray(cyc - np.floor(cyc))
+        prate = np.ascontiguousarray(speed[known, None] * cyc_rate[None, :])
+        none = np.zeros((0, nm))
+        kfac = te = ted = none
+        ampl_k = np.zeros((n + 1, lin.ne))
+        if self.effects:
+            t_e = np.concatenate([[2 * t[0] - t[1]], t])
+            a_e = np.concatenate([[2 * angle[0] - angle[1]], angle])
+            s_e = np.concatenate([[speed[0]], speed])
+            kfac, te, ted, _, ampl_k = _effect_arrays(lin, t_e, a_e, s_e, self.effects)
+            kfac, te, ted = (np.ascontiguousarray(a) for a in (kfac, te, ted))
+        ampl_k = np.ascontiguousarray(ampl_k)
+        all_in_gemm = fm_.cstack.shape[1] == len(self.specs)
+        out = np.empty((n, fm_.cstack.shape[1]))
+        dte = np.empty((n, nm))
+        dted = np.empty((n, nm))
+        fm = np.empty((n, nm))
+        states = np.empty((n, nm), dtype=np.int8)
+        kt = np.empty((n, nm))
+        et = np.empty((n, nm))
+        edt = np.empty((n, nm))
+        coef = np.empty((n, nm, lin.nb))
+        if self._hbuf.shape[1] != fm_.cstack.shape[0]:
+            self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, fm_.cstack.shape[0]))
+        status, step, nfail = meshes_kernel.run_chunk_meshes(
+            (self.zr, self.zi, *fm_.modal),
+            fm_.n_forced,
+            fm_.mesh,
+            fm_.tables,
+            (phase, prate, kfac, te, ted, ampl_k),
+            (self.beta_act, self.ypred, self.contact),
+            (fm_.cstack, fm_.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef),
+            bound,
+        )
+        self.n_mesh_fail += nfail
+        if status != kernels.STATUS_OK:
+            raise SimulationDiverged(
+                float(t[1 + step]),
+                float(speed[1 + step]) * 60.0 / (2.0 * np.pi),
+                system.temperature_c,
+                "non-finite state" if status == kernels.STATUS_NONFINITE else f"|DTE| above {bound:g} m",
+            )
+        if all_in_gemm:
+            ch = out
+        else:  # only DTE / mesh force channels
+            ch = np.empty((n, len(self.specs)))
+            for i, sp in enumerate(self.specs):
+                ch[:, i] = dte[:, sp.mesh] if sp.kind == "dte" else fm[:, sp.mesh]
+        ampl = ampl_k[1:]
+        if n:
+            st.delta = dte[-1].copy()
+            st.delta_dot = dted[-1].copy()
+            st.force = fm[-1].copy()
+            st.coef = coef[-1].copy()
+            st.ampl = ampl[-1].copy()
+            st.contact = self.contact.copy()
+            st.angle = float(angle[-2])
+            st.time = float(t[-2])
+        st.x = self.physical_x()
+        return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
 
 class SimulationDiverged(RuntimeError):
