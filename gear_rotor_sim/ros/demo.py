@@ -367,14 +367,19 @@ def thermal_axial_force(
 # the demo
 # ------------------------------------------------------------------------------------------------
 def _read_mcap(path: Path) -> dict[str, list[tuple[int, int, int]]]:
-    """Per topic: (sequence, first_sample_index, n_samples) of every recorded VibrationChunk."""
+    """Per topic: (sequence, first_sample_index, n_samples) of every recorded VibrationChunk; other
+    message types (the fault ground truth) as (index, 0, 0)."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
     out: dict[str, list[tuple[int, int, int]]] = {}
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _schema, channel, _message, msg in reader.iter_decoded_messages():
+        for schema, channel, _message, msg in reader.iter_decoded_messages():
+            if schema is None or not schema.name.endswith("VibrationChunk"):
+                recs = out.setdefault(channel.topic, [])
+                recs.append((len(recs), 0, 0))
+                continue
             n_ch = max(1, len(msg.channel_names))
             out.setdefault(channel.topic, []).append(
                 (msg.sequence, msg.first_sample_index, len(msg.data) // n_ch)
@@ -415,13 +420,15 @@ def set_faults(probe: Probe, faults_yaml: str, timeout_s: float = 30.0) -> tuple
 
 
 def print_fault_effect(indicators: Sequence, t_from: float, t_fault: float, t_after: float) -> None:
-    """Median indicators of the monitor's windows wholly before the fault and wholly after it."""
+    """Median indicators of the monitor's windows wholly before the fault and wholly after it
+    (``indicators``: the probe's ``(wall time, ConditionIndicators)`` pairs)."""
+    msgs = [m for _, m in indicators]
 
     def stamp(m) -> float:
         return m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
 
-    before = [m for m in indicators if t_from <= stamp(m) and stamp(m) + m.window_s <= t_fault]
-    after = [m for m in indicators if stamp(m) >= t_after]
+    before = [m for m in msgs if t_from <= stamp(m) and stamp(m) + m.window_s <= t_fault]
+    after = [m for m in msgs if stamp(m) >= t_after]
     if not before or not after:
         print(f"not enough monitor windows (before {len(before)}, after {len(after)})")
         return
