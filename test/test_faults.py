@@ -29,6 +29,8 @@ from gear_rotor_sim.solver.newmark import make_context
 
 FS = 20000.0
 DURATION_S = 0.05
+#: Every library type; ``record`` is tested with RECORDED (the types the node test does not switch
+#: to, plus the issue's example), the node test with the others.
 ONE_OF_EACH = [
     {"type": "tooth_damage", "wheel": "gear", "tooth": 5, "depth": 0.3},
     {"type": "tooth_wear", "wear_depth_m": 1.0e-5},
@@ -161,8 +163,11 @@ def _read_truth(path: Path) -> list:
     return msgs, meta
 
 
-def test_record_each_fault_type_equals_library_effect_and_truth_equals_request(tmp_path: Path, cfg) -> None:
-    for i, entry in enumerate(ONE_OF_EACH):
+RECORDED = ("tooth_damage", "gear_eccentricity", "shaft_misalignment", "inner_race_defect", "ball_defect")
+
+
+def test_record_fault_types_equal_library_effect_and_truth_equals_request(tmp_path: Path, cfg) -> None:
+    for i, entry in enumerate(e for e in ONE_OF_EACH if e["type"] in RECORDED):
         out = tmp_path / f"run{i}.mcap"
         params = RunParameters(3000.0, 25.0, DURATION_S, streams=("dte", "bearing_forces"), faults=(entry,))
         record_run(params, out)

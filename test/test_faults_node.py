@@ -33,18 +33,17 @@ pytestmark = pytest.mark.ros
 
 DOMAIN_ID = random.randint(1, 200)
 STARTUP_TIMEOUT_S = 180.0
-STEP_S = 0.2  # simulated time each fault list is in force
+STEP_S = 0.15  # simulated time each fault list is in force
 INITIAL = {"type": "tooth_damage", "wheel": "gear", "tooth": 5, "depth": 0.3}
+#: One type per mechanism of the effect protocol (stiffness factor: INITIAL; transmission error and
+#: rotating force; rotating force; rebuilt system and transmission error; impulse forces). The other
+#: types go through ``record`` in test_faults.py (every type is covered by one of the two paths, each
+#: compared with the library effect in the Simulator); one node costs ~3 s of basis per switch.
 REQUESTS = [
     {"type": "pinion_eccentricity", "eccentricity_m": 2.0e-5},
-    {"type": "gear_eccentricity", "eccentricity_m": 3.0e-5, "phase_rad": 0.5},
     {"type": "mass_unbalance", "node": 5, "unbalance_kg_m": 2.0e-4},
-    {"type": "shaft_misalignment", "node": 1, "offset_m": 1.0e-4},
-    {"type": "tooth_damage", "wheel": "pinion", "tooth": 7, "depth": 0.5},
     {"type": "tooth_wear", "wear_depth_m": 1.0e-5},
     {"type": "outer_race_defect", "bearing": 2, "force_n": 800.0},
-    {"type": "inner_race_defect", "bearing": 3, "force_n": 800.0},
-    {"type": "ball_defect", "bearing": 1, "force_n": 800.0},
 ]
 BAD = [
     ("[{type: crack, tooth: 5}]", "faults[0].type"),
