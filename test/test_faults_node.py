@@ -97,13 +97,16 @@ def node_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
         "-p", "stream_qos.depth:=200",
         "-p", "publish_clock:=true",
         "-p", f"faults_file:={faults_file}",
+        "-p", "publish.housing_bearings:=[2]",
         "-p", "recording.enabled:=true",
         "-p", f"recording.path:={mcap}",
     ]  # fmt: skip
     log_path = tmp / "simulator.log"
     with open(log_path, "wb") as log:
         sim = subprocess.Popen([str(executable("simulator", env)), *args], env=env, stdout=log, stderr=log)
-    probe = Probe(topics=("/gear_rotor/dte", "/gear_rotor/bearing_forces"))
+    probe = Probe(
+        topics=("/gear_rotor/dte", "/gear_rotor/bearing_forces", "/gear_rotor/housing_accelerations")
+    )
     states: list = []
     latched = QoSProfile(
         depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
@@ -145,6 +148,7 @@ def node_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
         out["states"] = list(states)
         out["dte"] = _stream(probe.records("/gear_rotor/dte"))
         out["forces"] = _stream(probe.records("/gear_rotor/bearing_forces"))
+        out["housing"] = _stream(probe.records("/gear_rotor/housing_accelerations"))
         probe.close()
         out["log"] = log_path.read_text(errors="replace")
     return out
@@ -245,3 +249,22 @@ def test_growth_follows_its_law_in_the_truth(node_run: dict) -> None:
         assert s.faults[0].severity == pytest.approx(want, rel=1e-9, abs=1e-12 * s1)
         seen += 1
     assert seen >= 3
+
+
+def test_node_housing_accelerometers_follow_its_bearing_forces(node_run: dict) -> None:
+    """/gear_rotor/housing_accelerations is the housing model (docs/faults.md) driven by the same
+    node's bearing-2 forces, sample for sample, with the seeded sensor noise."""
+    from gear_rotor_sim.ros.params import STREAM_NAMES
+    from gear_rotor_sim.sensors.housing import HousingAccelerometers
+    from gear_rotor_sim.sensors.noise import SensorNoise
+
+    first_h, acc, names = node_run["housing"]
+    first_f, forces, fnames = node_run["forces"]
+    assert names == ("bearing2_housing_ax", "bearing2_housing_ay") and first_h == first_f == 0
+    n = min(acc.shape[0], forces.shape[0])
+    seed = 0 + STREAM_NAMES.index("housing_accelerations") + 1000  # noise.seed of the params file is 0
+    model = HousingAccelerometers(names, 20000.0, noise=SensorNoise(seed=seed))
+    src = forces[:n, [fnames.index("bearing2_fx"), fnames.index("bearing2_fy")]]
+    chunk = 2000  # the node's chunks (0.1 s at 20 kHz): the noise is drawn chunk by chunk
+    want = np.vstack([model.process(src[i : i + chunk]) for i in range(0, n, chunk)])
+    assert np.abs(acc[:n] - want).max() <= 1e-9 * np.abs(want).max()

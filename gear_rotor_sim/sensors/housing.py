@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import signal
@@ -118,3 +119,20 @@ class HousingAccelerometers:
         if self.noise is not None:
             out = out + self.noise.sample(out.shape, self.sample_rate_hz)
         return out
+
+
+def append_housing(block: Any, housing: HousingAccelerometers) -> Any:
+    """``block`` (a SampleBlock holding ``housing.sources``) with the housing channels appended."""
+    from gear_rotor_sim.blocks import SampleBlock
+
+    acc = housing.process(block.select(housing.sources).data)
+    return SampleBlock(
+        block.t0,
+        block.sample_rate_hz,
+        block.channels + housing.channels,
+        block.units + ("m/s^2",) * len(housing.channels),
+        np.hstack([block.data, acc]),
+        block.first_index,
+        block.speed_rpm,
+        block.temperature_c,
+    )
