@@ -8,13 +8,16 @@ or, on an existing dataset::
 
     python benchmarks/detection.py DIR --markdown docs/detection.md
 
+The alarms are :class:`gear_rotor_sim.alarms.FaultAlarms`'s computation (the monitor node's with
+``fault_thresholds_file``): indicators of the window, thresholds of its operating class, groups.
+
 Method: windows of ``--window-s`` from ``--skip-s`` on (gear_rotor_sim.datasets.load); features of the
 housing accelerometers (gear_rotor_sim.fault_indicators.window_features); healthy runs split by
 manifest order into training (even) and held-out (odd) halves; thresholds ``mean + k std`` per
-feature and operating class learnt on the training half (gear_rotor_sim.alarms). Each fault type is
-watched by its indicator group (``GROUPS``) on all housing channels; detection rate = fraction of
-that type's windows in which its group alarms; false alarms = fraction of held-out healthy windows in
-which the group alarms. Printed and written for every ``k`` of ``--k``.
+feature and operating class learnt on the training half (gear_rotor_sim.alarms). Each fault type
+is watched by its indicator group (``gear_rotor_sim.alarms.FAULT_GROUPS``) on all housing channels;
+detection rate = fraction of that type's windows in which its group alarms; false alarms = fraction
+of held-out healthy windows in which the group alarms. Printed and written for every ``k`` of ``--k``.
 """
 
 from __future__ import annotations
@@ -31,21 +34,10 @@ from pathlib import Path
 import numpy as np
 
 from gear_rotor_sim import datasets
-from gear_rotor_sim.alarms import Thresholds, operating_class
+from gear_rotor_sim.alarms import FAULT_GROUPS, Thresholds, group_alarms, operating_class, save_thresholds
 from gear_rotor_sim.fault_indicators import window_features
 
-#: Indicators watched per fault type (on every housing channel).
-GROUPS = {
-    "tooth_damage": ("fm4", "na4", "kurtosis", "crest_factor", "fm0"),
-    "tooth_wear": ("rms", "fm0", "ser"),
-    "pinion_eccentricity": ("ser", "order1", "rms"),
-    "gear_eccentricity": ("ser", "order1", "rms"),
-    "mass_unbalance": ("order1", "rms"),
-    "shaft_misalignment": ("order2", "rms"),
-    "outer_race_defect": ("env_bpfo", "kurtosis"),
-    "inner_race_defect": ("env_bpfi", "kurtosis"),
-    "ball_defect": ("env_bsf", "kurtosis"),
-}
+GROUPS = FAULT_GROUPS
 
 
 def _run_features(args: tuple[str, float, float]) -> list[dict]:
@@ -75,8 +67,8 @@ def features(directory: Path, window_s: float, skip_s: float, workers: int) -> l
     return [w for run in per_run for w in run]
 
 
-def _group_alarm(th: Thresholds, feats: dict, cls: tuple, group: tuple[str, ...]) -> bool:
-    return any(name.rsplit(".", 1)[1] in group for name in th.exceeded(feats, cls))
+def _group_alarm(th: Thresholds, feats: dict, cls: tuple, fault_type: str) -> bool:
+    return fault_type in group_alarms(th.exceeded(feats, cls))
 
 
 def evaluate(windows: list[dict], k: float) -> dict:
@@ -97,15 +89,17 @@ def evaluate(windows: list[dict], k: float) -> dict:
     for w in held:
         ex = th.exceeded(w["features"], cls(w))
         any_fa.append(bool(ex))
-        for t, g in GROUPS.items():
-            fa[t].append(any(n.rsplit(".", 1)[1] in g for n in ex))
+        hit = group_alarms(ex)
+        for t in GROUPS:
+            fa[t].append(t in hit)
     names = {}
     for w in windows:
         if w["type"] in GROUPS:
-            det[w["type"]][w["severity"]].append(_group_alarm(th, w["features"], cls(w), GROUPS[w["type"]]))
+            det[w["type"]][w["severity"]].append(_group_alarm(th, w["features"], cls(w), w["type"]))
             names[w["type"]] = w["severity_name"]
     return {
         "k": k,
+        "thresholds": th,
         "train_windows": len(train),
         "held_out_windows": len(held),
         "false_alarm_any": float(np.mean(any_fa)) if any_fa else float("nan"),
@@ -145,11 +139,27 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--markdown", type=Path, help="write the tables into this Markdown file's results block")
     ap.add_argument("--json", type=Path, help="write the results as JSON")
+    ap.add_argument(
+        "--save-thresholds",
+        type=Path,
+        help="write the thresholds learnt at --alarm-k (the monitor node's fault_thresholds_file)",
+    )
+    ap.add_argument("--alarm-k", type=float, default=6.0, help="k of the saved thresholds (default 6)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     windows = features(args.directory, args.window_s, args.skip_s, args.workers)
     wall = time.perf_counter() - t0
-    results = [evaluate(windows, k) for k in args.k]
+    ks = sorted(set(args.k) | ({args.alarm_k} if args.save_thresholds else set()))
+    results = [evaluate(windows, k) for k in ks]
+    if args.save_thresholds:
+        th = next(r["thresholds"] for r in results if r["k"] == args.alarm_k)
+        save_thresholds(
+            th, str(args.save_thresholds), note=f"learnt by benchmarks/detection.py on {args.directory}"
+        )
+        print(f"wrote {args.save_thresholds}")
+    results = [r for r in results if r["k"] in args.k]
+    for r in results:
+        del r["thresholds"]
     n_runs = len({w["run"] for w in windows})
     head = (
         f"{n_runs} runs, {len(windows)} windows of {args.window_s:g} s from {args.skip_s:g} s; "

@@ -259,3 +259,20 @@ def test_loader_windows_carry_labels_and_growing_severity(tmp_path: Path) -> Non
         assert w.labels[0]["severity"] == pytest.approx(want, rel=1e-12, abs=1e-9)
         assert w.fault_types == (() if tc < 0.1 else ("outer_race_defect",))
         assert w.speed_rpm == pytest.approx(3000.0, rel=1e-9)
+
+
+def test_monitor_fault_alarms_with_the_shipped_thresholds(tmp_path: Path) -> None:
+    """config/fault_thresholds.json (learnt from the healthy runs of the 200-run benchmark) raises the
+    tooth-damage alarm on every window of a run with gear tooth 5 at depth 0.6, and no tooth-damage
+    alarm on a healthy run at the same operating point (benchmark: 100 % and 0 % at k = 6)."""
+    from gear_rotor_sim.alarms import FaultAlarms
+
+    alarms = FaultAlarms(str(Path(__file__).resolve().parents[1] / "config" / "fault_thresholds.json"))
+    seen = {}
+    for name, faults in (("healthy", ()), ("damaged", ({"type": "tooth_damage", "wheel": "gear", "tooth": 5,
+                                                          "depth": 0.6},))):  # fmt: skip
+        out = tmp_path / f"{name}.mcap"
+        record_run(RunParameters(3000.0, 25.0, 1.0, streams=("housing_accelerations",), faults=faults), out)
+        seen[name] = [alarms.check(w)[0] for w in datasets.load(out, window_s=0.25, skip_s=0.5)]
+    assert len(seen["damaged"]) == 2 and all("tooth_damage" in a for a in seen["damaged"])
+    assert not any("tooth_damage" in a for a in seen["healthy"]), seen["healthy"]

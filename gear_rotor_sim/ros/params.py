@@ -324,6 +324,13 @@ MONITOR_PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec("window_s", 0.5, "Length of the analysis window, simulated seconds.", (1.0e-3, 600.0)),
     ParamSpec(
+        "fault_thresholds_file",
+        "",
+        "JSON of fault-alarm thresholds learnt from healthy runs (benchmarks/detection.py "
+        "--save-thresholds; config/fault_thresholds.json); on a housing_accelerations topic the fault "
+        "indicators are checked per window and alarms go to /diagnostics. '' disables.",
+    ),
+    ParamSpec(
         "pinion_teeth",
         29,
         "Tooth count of the pinion on the input shaft: the mesh order of the order lines.",
