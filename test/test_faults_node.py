@@ -16,6 +16,7 @@ import random
 import signal
 import subprocess
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -104,6 +105,16 @@ def node_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
     log_path = tmp / "simulator.log"
     with open(log_path, "wb") as log:
         sim = subprocess.Popen([str(executable("simulator", env)), *args], env=env, stdout=log, stderr=log)
+    thresholds = Path(__file__).resolve().parents[1] / "config" / "fault_thresholds.json"
+    mon_args = [
+        "--ros-args",
+        "-p", "topic:=/gear_rotor/housing_accelerations",
+        "-p", "window_s:=0.25",
+        "-p", "stream_qos.reliability:=reliable",
+        "-p", f"fault_thresholds_file:={thresholds}",
+    ]  # fmt: skip
+    with open(tmp / "monitor.log", "wb") as log:
+        mon = subprocess.Popen([str(executable("monitor", env)), *mon_args], env=env, stdout=log, stderr=log)
     probe = Probe(
         topics=("/gear_rotor/dte", "/gear_rotor/bearing_forces", "/gear_rotor/housing_accelerations")
     )
@@ -142,8 +153,16 @@ def node_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
         probe.wait_sim_time(growth["onset_s"] + 0.5, 60.0)
         out["growth"] = growth
         out["alive_after"] = sim.poll() is None
+        out["monitor_alive"] = mon.poll() is None
     finally:
         out["rc"] = stop_process(sim, signal.SIGINT, timeout_s=60.0)
+        out["monitor_rc"] = stop_process(mon, signal.SIGINT, timeout_s=30.0)
+        out["fault_status"] = [
+            st
+            for _, arr in list(probe.diagnostics)
+            for st in arr.status
+            if st.name.endswith(": fault alarms")
+        ]
         time.sleep(0.2)
         out["states"] = list(states)
         out["dte"] = _stream(probe.records("/gear_rotor/dte"))
@@ -268,3 +287,12 @@ def test_node_housing_accelerometers_follow_its_bearing_forces(node_run: dict) -
     chunk = 2000  # the node's chunks (0.1 s at 20 kHz): the noise is drawn chunk by chunk
     want = np.vstack([model.process(src[i : i + chunk]) for i in range(0, n, chunk)])
     assert np.abs(acc[:n] - want).max() <= 1e-9 * np.abs(want).max()
+
+
+def test_monitor_reports_fault_alarms_on_the_housing_stream(node_run: dict) -> None:
+    """The monitor node with the shipped thresholds checks every window of the node's housing
+    stream and reports on /diagnostics (wiring; the alarm decisions are tested offline)."""
+    assert node_run["monitor_alive"] and node_run["monitor_rc"] == 0
+    st = node_run["fault_status"]
+    assert st, "no 'fault alarms' status from the monitor"
+    assert all(s.message == "no fault alarm" or s.message.startswith("alarm: ") for s in st)
