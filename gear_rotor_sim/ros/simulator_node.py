@@ -253,6 +253,7 @@ class SimulatorNode(Node):
         }
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         self._faults: NodeFaults | None = None  # built in start() (needs the rig)
+        self._housing: Any = None  # housing accelerometers, built in start()
         self._fault_pub = self.create_publisher(FaultState, FAULTS_TOPIC, FAULTS_QOS)
         self.create_service(SetFaults, "~/set_faults", self._on_set_faults)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
@@ -290,9 +291,29 @@ class SimulatorNode(Node):
         for spec in specs:
             channels = spec.channels
             if spec.name == "bearing_forces":
+                if not bearings:
+                    continue
                 channels = tuple(f"bearing{k}_f{d}" for k in bearings for d in "xyz")
             out.append(StreamSpec(spec.name, channels, str(v[f"frame_ids.{spec.name}"])))
+        housing = [int(b) for b in v["publish.housing_bearings"]]
+        if housing:
+            from gear_rotor_sim.sensors.housing import housing_channels
+
+            name = "housing_accelerations"
+            out.append(StreamSpec(name, housing_channels(housing), str(v[f"frame_ids.{name}"])))
         return out
+
+    def _housing_model(self) -> Any:
+        """Streaming housing accelerometers of the housing stream (docs/faults.md), or None."""
+        spec = next((s for s in self._streams if s.name == "housing_accelerations"), None)
+        if spec is None:
+            return None
+        from gear_rotor_sim.sensors.housing import HousingAccelerometers
+        from gear_rotor_sim.sensors.noise import SensorNoise
+
+        seed = int(self._values["noise.seed"]) + STREAM_NAMES.index(spec.name) + 1000
+        fs = float(self._values["output_sample_rate_hz"])
+        return HousingAccelerometers(spec.channels, fs, noise=SensorNoise(seed=seed))
 
     def start(self) -> None:
         """Load the model, build the simulator (and recorder), start the stepping thread.
@@ -322,7 +343,9 @@ class SimulatorNode(Node):
             raise ParamError(f"faults_file: {faults_file}: {exc}") from exc
         self._faults = NodeFaults(cfg, initial)
         available = {name for name, _unit in Simulator.available_channels(cfg)}
-        channels = [c for s in self._streams for c in s.channels]
+        self._housing = self._housing_model()
+        channels = [c for s in self._streams if s.name != "housing_accelerations" for c in s.channels]
+        channels += list(self._housing.sources) if self._housing is not None else []
         missing = [c for c in channels if c not in available]
         if missing:
             raise ParamError(
@@ -620,6 +643,10 @@ class SimulatorNode(Node):
 
     def _publish_block(self, block: SampleBlock, t_end: float, sequence: dict, clock: Clock) -> None:
         self._publish_faults(block.t0)
+        if self._housing is not None:
+            from gear_rotor_sim.sensors.housing import append_housing
+
+            block = append_housing(block, self._housing)
         if self._rebuild_noise:
             self._rebuild_noise = False
             self._build_noise()
