@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from gear_rotor_sim.config import load_config
+from gear_rotor_sim.faults.library import EFFECT_TYPES
 from gear_rotor_sim.simulator import Simulator
 from gear_rotor_sim.solver import NewmarkStepper, parse_channels, quantize_speed_rpm, static_equilibrium
 from gear_rotor_sim.solver.newmark import LinearModel
@@ -35,11 +36,20 @@ def _with_meshes(system: AssembledSystem, **changes: object) -> AssembledSystem:
     return dataclasses.replace(system, meshes=tuple(dataclasses.replace(m, **changes) for m in system.meshes))
 
 
-def _run(system: AssembledSystem, names: list[str], n: int, steps_per_mesh: int, **kw: object) -> tuple:
+def _run(
+    system: AssembledSystem,
+    names: list[str],
+    n: int,
+    steps_per_mesh: int,
+    fuse: bool = True,
+    effects: tuple = (),
+    **kw: object,
+) -> tuple:
     """``n`` steps at constant speed from static equilibrium; (stepper, channels, dte, times)."""
     specs = parse_channels(system, names)
-    stepper = NewmarkStepper(system, specs, **kw)
-    st = static_equilibrium(system)
+    stepper = NewmarkStepper(system, specs, effects, **kw)
+    stepper.fuse_meshes = fuse
+    st = static_equilibrium(system, effects)
     omega = quantize_speed_rpm(SPEED_RPM) * 2 * np.pi / 60
     f_mesh = system.meshes[0].pinion_teeth * SPEED_RPM / 60
     dt = 1.0 / (steps_per_mesh * f_mesh)
@@ -118,24 +128,42 @@ def test_linear_response_of_both_meshes_matches_frequency_domain(disable_fast: b
         assert err < 5e-3, (k, err)
 
 
-def test_multi_mesh_kernel_equals_general_kernel_two_stage() -> None:
-    """The same map and mesh law (friction, backlash, varying stiffness): the compiled multi-mesh
-    kernel and the general kernel agree to round-off (tables without jumps: both interpolate them)."""
+def _effects() -> tuple:
+    """Effects of every kind the kernels take: stiffness factor and TE on mesh 2 (tooth damage on the
+    output gear, gear eccentricity) and a force column (mass unbalance on the output shaft)."""
+    return (
+        EFFECT_TYPES["tooth_damage"](tooth=7, depth=0.3, wheel="gear", mesh=2),
+        EFFECT_TYPES["gear_eccentricity"](eccentricity_m=5e-6, mesh=2),
+        EFFECT_TYPES["mass_unbalance"](node=23, unbalance_kg_m=2e-4),
+    )
+
+
+@pytest.mark.parametrize("fuse", [True, False], ids=["fused-pass", "pass-per-mesh"])
+def test_multi_mesh_kernel_equals_general_kernel_two_stage(fuse: bool) -> None:
+    """The same map and mesh law (friction, backlash, varying stiffness, effects on the second mesh):
+    the compiled multi-mesh kernel (both update paths) and the general kernel agree to round-off
+    (tables without jumps: both interpolate them)."""
     system = _with_meshes(_two_stage(), table_jumps=None)
     names = ["mesh1_dte", "mesh1_force", "mesh2_dte", "mesh2_force", "bearing5_fy", "node23_ay"]
-    s_fast, fast, _, _ = _run(system, names, 6000, 40)
-    s_gen, gen, _, _ = _run(system, names, 6000, 40, disable_fast=True)
+    s_fast, fast, _, _ = _run(system, names, 6000, 40, fuse=fuse, effects=_effects())
+    s_gen, gen, _, _ = _run(system, names, 6000, 40, effects=_effects(), disable_fast=True)
     assert s_fast.fastm is not None and s_gen.fastm is None
     scale = np.abs(gen).max(axis=0)
     assert np.all(np.abs(fast - gen).max(axis=0) <= 1e-8 * scale)
 
 
 def test_multi_mesh_kernel_equals_single_mesh_kernel_on_paper_gearbox() -> None:
-    """On one mesh the multi-mesh kernel reproduces the single-mesh fast kernel (events not located)."""
+    """On one mesh the multi-mesh kernel reproduces the single-mesh fast kernel (events not located),
+    with effects of every kind."""
     system = GearRotorSystem.from_config(load_config("paper_sun2021"), 25.0)
     names = ["dte", "mesh_force", "bearing1_fx", "node5_ay"]
-    s_one, one, _, _ = _run(system, names, 6000, 40)
-    s_multi, multi, _, _ = _run(system, names, 6000, 40, meshes_kernel_for_one=True)
+    eff = (
+        EFFECT_TYPES["tooth_damage"](tooth=3, depth=0.3, wheel="pinion", mesh=1),
+        EFFECT_TYPES["gear_eccentricity"](eccentricity_m=5e-6, mesh=1),
+        EFFECT_TYPES["mass_unbalance"](node=14, unbalance_kg_m=2e-4),
+    )
+    s_one, one, _, _ = _run(system, names, 6000, 40, effects=eff)
+    s_multi, multi, _, _ = _run(system, names, 6000, 40, effects=eff, meshes_kernel_for_one=True)
     assert s_one.fast is not None and s_multi.fastm is not None
     scale = np.abs(one).max(axis=0)
     assert np.all(np.abs(multi - one).max(axis=0) <= 1e-10 * scale)

@@ -1145,6 +1145,7 @@ class NewmarkStepper:
         self.fastm: MeshesMap | None = None
         self.disable_fast = disable_fast
         self.meshes_kernel = meshes_kernel_for_one
+        self.fuse_meshes = True  # multi-mesh kernel: fused pass for <= 2 meshes (False: tests)
         self.locate_events = bool(locate_events)
         self.n_substeps = 0
         self._hbuf = np.zeros((0, 0))
@@ -1456,6 +1457,7 @@ class NewmarkStepper:
             (self.beta_act, self.ypred, self.contact),
             (fm_.cstack, fm_.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef),
             bound,
+            self.fuse_meshes,
         )
         self.n_mesh_fail += nfail
         if status != kernels.STATUS_OK:
