@@ -88,8 +88,7 @@ def _harmonic_dte(system: AssembledSystem, omega_in: float, mesh: int, w: float,
     return lin.V @ np.linalg.solve(h, rhs)
 
 
-@pytest.mark.parametrize("disable_fast", [False, True], ids=["multi-mesh-kernel", "general-kernel"])
-def test_linear_response_of_both_meshes_matches_frequency_domain(disable_fast: bool) -> None:
+def test_linear_response_of_both_meshes_matches_frequency_domain() -> None:
     """Constant mesh stiffness, no backlash, no friction: the DTE of both meshes to both meshes' TE
     (two frequencies, superposed) against the steady frequency-domain solution."""
     base = _two_stage(friction=0.0)
@@ -110,8 +109,8 @@ def test_linear_response_of_both_meshes_matches_frequency_domain(disable_fast: b
     f1 = system.meshes[0].pinion_teeth * SPEED_RPM / 60
     n_tr = int(0.5 * f1) * spm  # 0.5 s: > 19 time constants of the slowest mode
     n_win = 100 * spm  # 100 periods of mesh 1 (51 of mesh 2)
-    stepper, ch, _, t = _run(system, ["mesh1_dte", "mesh2_dte"], n_tr + n_win, spm, disable_fast=disable_fast)
-    assert (stepper.fastm is None) == disable_fast
+    stepper, ch, _, t = _run(system, ["mesh1_dte", "mesh2_dte"], n_tr + n_win, spm)
+    assert stepper.fastm is not None  # the general kernel equals it (test below)
     st = static_equilibrium(system)
     omega_in = quantize_speed_rpm(SPEED_RPM) * 2 * np.pi / 60
     w_in = SPEED_RPM * 2 * np.pi / 60
@@ -145,8 +144,8 @@ def test_multi_mesh_kernel_equals_general_kernel_two_stage(fuse: bool) -> None:
     (tables without jumps: both interpolate them)."""
     system = _with_meshes(_two_stage(), table_jumps=None)
     names = ["mesh1_dte", "mesh1_force", "mesh2_dte", "mesh2_force", "bearing5_fy", "node23_ay"]
-    s_fast, fast, _, _ = _run(system, names, 6000, 40, fuse=fuse, effects=_effects())
-    s_gen, gen, _, _ = _run(system, names, 6000, 40, effects=_effects(), disable_fast=True)
+    s_fast, fast, _, _ = _run(system, names, 3000, 40, fuse=fuse, effects=_effects())
+    s_gen, gen, _, _ = _run(system, names, 3000, 40, effects=_effects(), disable_fast=True)
     assert s_fast.fastm is not None and s_gen.fastm is None
     scale = np.abs(gen).max(axis=0)
     assert np.all(np.abs(fast - gen).max(axis=0) <= 1e-8 * scale)
