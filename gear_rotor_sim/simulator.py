@@ -45,6 +45,7 @@ from gear_rotor_sim.solver.newmark import (
     _effect_arrays,
     available_channels,
     check_steps_per_mesh,
+    mesh_frequencies_hz,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
@@ -311,9 +312,9 @@ class Simulator:
                 rate = max(rate, self.contact_loss_rate_hz)
             stepper = self._systems[self._tq_cur][1]
             light = light_mesh_modes(stepper.lin, stepper.basis(quantize_speed_rpm(s0) * 2.0 * np.pi / 60.0))
-            for sp in (s0, s1):
-                fm = mesh_frequency_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM))
-                rate = max(rate, resonance_rate_hz(fm, light))
+            for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
+                for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
+                    rate = max(rate, resonance_rate_hz(fm, light))
             rate = min(rate, MAX_STEPS_PER_MESH * f)
         return max(1, int(np.ceil(rate / self.output_rate_hz * (1 - 1e-12))))
 
@@ -534,15 +535,15 @@ class Simulator:
             y = np.concatenate([y0, y])
         loss = back = 0
         if states.shape[1]:
-            loss = int(np.count_nonzero(states[:, 0] == 0))
-            back = int(np.count_nonzero(states[:, 0] < 0))
+            loss = int(np.count_nonzero((states == 0).any(axis=1)))  # any mesh
+            back = int(np.count_nonzero((states < 0).any(axis=1)))
         return y, loss, back
 
     def _update_dt_rule(self, states: np.ndarray) -> None:
         """Contact-loss setting at the window ends: on after a separation, off after none."""
         if self.contact_loss_rate_hz is None or not states.shape[1]:
             return
-        if not self._separated and states.shape[0] and states[:, 0].min() < 2:  # free flight, back side
+        if not self._separated and states.shape[0] and states.min() < 2:  # any mesh: free flight, back side
             self._separated = True  # or pinned at +-b*
         if self._raw % self._k or (self._seg_out0 + self._raw // self._k) % self._rule_window:
             return

@@ -77,13 +77,17 @@ def quantize_speed_rpm(speed_rpm: float) -> float:
     return float(np.exp(np.round(np.log(speed_rpm) / step) * step))
 
 
+def mesh_frequencies_hz(system: AssembledSystem, speed_rpm: float) -> list[float]:
+    """Mesh frequency of every mesh at an input speed, Hz, in the order of ``meshes``."""
+    return [
+        m.pinion_teeth * abs(float(system.shaft_speed_ratios[m.pinion_shaft])) * speed_rpm / 60.0
+        for m in system.meshes
+    ]
+
+
 def mesh_frequency_hz(system: AssembledSystem, speed_rpm: float) -> float:
     """Highest mesh frequency of the system at an input speed, Hz (0 without meshes)."""
-    f = 0.0
-    for m in system.meshes:
-        ratio = abs(float(system.shaft_speed_ratios[m.pinion_shaft]))
-        f = max(f, m.pinion_teeth * ratio * speed_rpm / 60.0)
-    return f
+    return max(mesh_frequencies_hz(system, speed_rpm), default=0.0)
 
 
 # ----------------------------------------------------------------------------------------------
