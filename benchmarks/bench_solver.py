@@ -20,6 +20,12 @@ because the machine is shared.
     periods, the default dt rule, continuation) over 500-20000 rpm: 40 speeds on one worker, extrapolated
     to 400 (labelled), and the full 400 speeds on the default (2) workers, set-up included.
 
+(e) the two-stage example (``config/two_stage_example.yaml``, three shafts, two meshes, the
+    multi-mesh kernel) next to the paper gearbox: ``Simulator.advance`` RTF with the DTE channels only
+    (``mesh1_dte``, ``mesh2_dte`` against ``dte``) at 3000 rpm input, the two simulators advanced
+    alternately (interleaved chunks, so both see the same machine phase), and the ratio; plus the
+    integration steps per second of each.
+
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
 reproduce command imports it (``quick=True`` takes well under a minute).
@@ -37,6 +43,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from gear_rotor_sim.config import load_config
 from gear_rotor_sim.examples import paper_gearbox
 from gear_rotor_sim.simulator import Simulator
 from gear_rotor_sim.solver.newmark import (
@@ -155,6 +162,38 @@ def simulator_rtf(
     return r
 
 
+def interleaved_rtf(
+    cases: dict[str, tuple[object, list[str]]], rpm: float, chunk_s: float, repeats: int
+) -> dict:
+    """RTF of several simulators advanced alternately (chunk by chunk) after a warm-up; medians."""
+    sims = {k: Simulator(cfg, rpm, 25.0, OUTPUT_RATE_HZ, channels=ch) for k, (cfg, ch) in cases.items()}
+    for sim in sims.values():
+        sim.advance(0.1)  # warm-up: kernels loaded, basis built, transient start
+    wall: dict[str, list[float]] = {k: [] for k in sims}
+    cpu: dict[str, list[float]] = {k: [] for k in sims}
+    steps: dict[str, float] = {}
+    load0 = os.getloadavg()[0]
+    for _ in range(repeats):
+        for k, sim in sims.items():
+            t0, c0 = time.perf_counter(), time.process_time()
+            sim.advance(chunk_s)
+            wall[k].append(time.perf_counter() - t0)
+            cpu[k].append(time.process_time() - c0)
+            steps[k] = sim.last_chunk_stats["steps"]
+    out: dict = {}
+    for k, sim in sims.items():
+        w, c = float(np.median(wall[k])), float(np.median(cpu[k]))
+        out[k] = {
+            "rtf": chunk_s / w,
+            "rtf_cpu": chunk_s / c,
+            "steps_per_s": steps[k] / w,
+            "dt_s": sim.dt,
+            "channels": list(sim.channels),
+            "load": (load0, os.getloadavg()[0]),
+        }
+    return out
+
+
 def setup_times(cfg: object, repeats: int) -> dict:
     """System assembly + linear model per temperature; eigendecomposition per speed; step map per dt."""
     out: dict = {}
@@ -228,6 +267,17 @@ def measure(quick: bool = True) -> dict:
                 continue
             res["simulator"][f"{name}_{rpm:.0f}rpm"] = simulator_rtf(cfg, rpm, ch, chunk, repeats)
     res["setup"] = setup_times(cfg, repeats)
+    two = interleaved_rtf(
+        {
+            "paper": (cfg, ["dte"]),
+            "two_stage": (load_config("two_stage_example"), ["mesh1_dte", "mesh2_dte"]),
+        },
+        3000.0,
+        chunk,
+        repeats,
+    )
+    two["ratio"] = two["two_stage"]["rtf"] / two["paper"]["rtf"]
+    res["two_stage_3000rpm"] = two
     if not quick:
         one = sweep_time(40, 1)
         one["extrapolated_400_s"] = one["wall_s"] * 10.0
@@ -286,6 +336,15 @@ def report(res: dict) -> None:
             f"EXTRAPOLATED to 400 speeds on one core: {o['extrapolated_400_s']:.0f} s"
         )
         print(f"  400 speeds, default workers (2), measured: {f['wall_s']:.1f} s wall ({la(f)})")
+    t = res["two_stage_3000rpm"]
+    print("\n(e) two-stage example next to the paper gearbox, 3000 rpm input, DTE channels only, interleaved")
+    for key in ("paper", "two_stage"):
+        r = t[key]
+        print(
+            f"  {key:10s} {','.join(r['channels']):20s} RTF {r['rtf']:7.2f} | {r['rtf_cpu']:7.2f}  "
+            f"{r['steps_per_s'] / 1e6:6.3f} M steps/s wall (dt {r['dt_s'] * 1e6:.3f} us; {la(r)})"
+        )
+    print(f"  two-stage / paper RTF: {t['ratio']:.3f} (goal >= 0.40)")
     print(f"\nload average at end {tuple(round(x, 2) for x in res['load_end'])}")
     print(
         "\nGOALS: steps/s (simulate_steady, DTE only, min over 3000/20000 rpm) "
