@@ -320,6 +320,11 @@ class SimulatorNode(Node):
         except FaultError as exc:
             raise ParamError(f"faults_file: {faults_file}: {exc}") from exc
         self._faults = NodeFaults(cfg, initial)
+        if len(cfg.meshes) > 1:  # a multi-stage rig: the DTE stream carries every mesh's DTE and force
+            per_mesh = tuple(f"mesh{k}_{q}" for k in range(1, len(cfg.meshes) + 1) for q in ("dte", "force"))
+            self._streams = [
+                StreamSpec(sp.name, per_mesh, sp.frame_id) if sp.name == "dte" else sp for sp in self._streams
+            ]
         available = {name for name, _unit in Simulator.available_channels(cfg)}
         channels = [c for s in self._streams for c in s.channels]
         missing = [c for c in channels if c not in available]
