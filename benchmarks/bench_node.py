@@ -10,7 +10,8 @@ can do (so it runs flat out), and measures the achieved real-time factor from ``
 invalid mixed) at real time factor 1, and prints the largest gap between stream messages and the
 node's memory before and after.
 
-    . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--model NAME] [--burst]
+    . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--burst]
+        [--model NAME]
 """
 
 from __future__ import annotations

@@ -17,9 +17,10 @@ The arrays are passed grouped by role, as tuples:
 ``modal``   (zr, zi, rr, ri, c0r, c0i, swr, swi, crr, cri): modal state (updated), diagonal map,
             static increment, force-column responses ``SW`` (na, nmode) and mesh prediction rows
             ``(V Phi) r`` (2 nm, nmode: delta rows, then delta' rows).
-``mesh``    (pq, pq_static, pd, pv, mesh_par): responses of delta, delta' (2 nm, na) to the column
-            amplitudes and to the static load; ``pd``, ``pv`` (nm, nm) the elimination of the
-            mean-mesh compensation (see :func:`_mesh_system`); ``mesh_par`` (nm, 6) =
+``mesh``    (pq, pqn, pq_static, pd, pv, mesh_par): responses of delta, delta' (2 nm, na) to the
+            carried and to the new column amplitudes (equal for the full basis; with a reduced one
+            ``pqn`` adds the dropped modes' static response) and to the static load; ``pd``, ``pv``
+            (nm, nm) the elimination of the mean-mesh compensation; ``mesh_par`` (nm, 6) =
             (kbar, cbar, c_m, b*, e0, phi_te).
 ``tables``  (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump): per mesh, the
             full tables (nm, nt) / (nm, nt, nb), the flag of the intervals holding a jump, the
@@ -123,7 +124,7 @@ def run_chunk_meshes(
     (status, step, n_failed_mesh_solves)
     """
     zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2 = modal
-    pq, pq_static, pd, pv, mesh_par = mesh
+    pq, pqn, pq_static, pd, pv, mesh_par = mesh
     phase, phase_rate, kfac, te_add, ted_add, ampl = exc
     tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump = tables
     beta_prev, ypred, state = carry
@@ -262,17 +263,17 @@ def run_chunk_meshes(
                 sd += pq[i, q] * beta_prev[q]
                 sv += pq[nm + i, q] * beta_prev[q]
             for q in range(e0, na):
-                sd += pq[i, q] * beta_new[q]
-                sv += pq[nm + i, q] * beta_new[q]
+                sd += pqn[i, q] * beta_new[q]
+                sv += pqn[nm + i, q] * beta_new[q]
             a1[i] = sd
             b1[i] = sv
             for l in range(nm):
                 c = l * nb
-                td = -coef[l, 0] * pq[i, c]
-                tv = -coef[l, 0] * pq[nm + i, c]
+                td = -coef[l, 0] * pqn[i, c]
+                tv = -coef[l, 0] * pqn[nm + i, c]
                 for j in range(1, nb):
-                    td += pq[i, c + j] * coef[l, j]
-                    tv += pq[nm + i, c + j] * coef[l, j]
+                    td += pqn[i, c + j] * coef[l, j]
+                    tv += pqn[nm + i, c + j] * coef[l, j]
                 gd[i, l] = td
                 gv[i, l] = tv
         for l in range(nm):
