@@ -371,6 +371,8 @@ def _read_mcap(path: Path) -> dict[str, list[tuple[int, int, int]]]:
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         for _schema, channel, _message, msg in reader.iter_decoded_messages():
+            if not hasattr(msg, "channel_names"):
+                continue  # not a VibrationChunk (e.g. the /gear_rotor/faults ground truth)
             n_ch = max(1, len(msg.channel_names))
             out.setdefault(channel.topic, []).append(
                 (msg.sequence, msg.first_sample_index, len(msg.data) // n_ch)
