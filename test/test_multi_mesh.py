@@ -188,3 +188,57 @@ def test_two_stage_simulator_per_mesh_channels() -> None:
     assert np.all(y > 0)  # both stages loaded on their drive flanks
     with pytest.raises(ValueError, match="channels: 'mesh3_dte'"):
         Simulator(load_config("two_stage_example"), speed_rpm=SPEED_RPM, channels=["mesh3_dte"])
+
+
+def test_modal_reduction_keeps_the_static_solution() -> None:
+    """With the residual flexibility of the dropped modes the static response is exact: a reduced run
+    (20 kHz cut-off: 53 of 164 modes) started at static equilibrium with constant mesh stiffness and
+    no transmission error stays there to round-off."""
+    system = _with_meshes(_two_stage(friction=0.0), te_amplitude=0.0, table_jumps=None)
+    system = dataclasses.replace(
+        system,
+        meshes=tuple(
+            dataclasses.replace(m, table_stiffness=np.full(m.table_stiffness.size, m.mean_stiffness))
+            for m in system.meshes
+        ),
+    )
+    specs = parse_channels(system, ["mesh1_dte", "mesh2_dte", "bearing5_fy"])
+    stepper = NewmarkStepper(system, specs)
+    stepper.modal_cutoff_hz = 20e3
+    st = static_equilibrium(system)
+    omega = quantize_speed_rpm(SPEED_RPM) * 2 * np.pi / 60
+    dt = 1.0 / (32 * 1450.0)
+    stepper.set_operating_point(omega, dt, st)
+    assert stepper.map.resid is not None and stepper.map.basis.lam.size < 60
+    j = np.arange(-1, 2001, dtype=float)
+    ch, *_ = stepper.run(j * dt, omega * j * dt, np.full(j.size, omega), st)
+    x0 = static_equilibrium(system)
+    assert np.all(np.abs(ch[:, :2] - x0.delta) <= 1e-9 * x0.delta)
+    lin = LinearModel(system)
+    q = x0.q_full(system.ndof)
+    site = system.bearings[4]
+    f_static = site.stiffness[1] @ q[6 * site.node0 : 6 * site.node0 + 6]
+    assert np.all(np.abs(ch[:, 2] - f_static) <= 1e-8 * abs(f_static))
+    assert lin.nm == 2
+
+
+@pytest.mark.parametrize("rpm", [3000.0, 12000.0])
+def test_modal_reduction_matches_full_model(rpm: float) -> None:
+    """The default reduced model ("auto" cut-off) of the two-stage rig against the full model: the
+    RMS DTE of both meshes within 0.5 % (measured 0.00 % at 3000 rpm, 0.01 % at 12000 rpm with
+    41 % contact loss)."""
+    out = {}
+    for cut in (None, "auto"):
+        sim = Simulator(
+            load_config("two_stage_example"),
+            speed_rpm=rpm,
+            output_rate_hz=20000.0,
+            channels=["mesh1_dte", "mesh2_dte"],
+            modal_cutoff_hz=cut,
+        )
+        sim.advance(0.1)
+        out[cut] = np.asarray(sim.advance(0.05).data)
+        assert (sim._stepper.map.resid is None) == (cut is None)
+    rms_full = np.sqrt(np.mean(out[None] ** 2, axis=0))
+    rms_red = np.sqrt(np.mean(out["auto"] ** 2, axis=0))
+    assert np.all(np.abs(rms_red - rms_full) <= 5e-3 * rms_full)
