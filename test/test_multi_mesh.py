@@ -242,3 +242,24 @@ def test_modal_reduction_matches_full_model(rpm: float) -> None:
     rms_full = np.sqrt(np.mean(out[None] ** 2, axis=0))
     rms_red = np.sqrt(np.mean(out["auto"] ** 2, axis=0))
     assert np.all(np.abs(rms_red - rms_full) <= 5e-3 * rms_full)
+
+
+def test_streams_and_recording_metadata_name_every_mesh_and_shaft() -> None:
+    """Multi-stage rigs: the DTE stream carries every mesh's channels; the recordings' metadata holds
+    the per-shaft speed ratios and the mesh orders (mesh frequency per input revolution)."""
+    from gear_rotor_sim.streams import default_streams
+    from gear_rotor_sim.system import drivetrain_metadata
+
+    cfg = load_config("two_stage_example")
+    dte = default_streams(len(cfg.bearings), n_meshes=len(cfg.meshes))[0]
+    assert dte.channels == ("mesh1_dte", "mesh1_force", "mesh2_dte", "mesh2_force")
+    available = {name for name, _ in Simulator.available_channels(cfg)}
+    assert set(dte.channels) <= available
+    meta = drivetrain_metadata(cfg)
+    ratios = dict(kv.split("=") for kv in meta["shaft_speed_ratios"].split(", "))
+    assert float(ratios["intermediate"]) == pytest.approx(-29 / 49, rel=1e-11)
+    assert float(ratios["output"]) == pytest.approx(29 / 49 * 25 / 60, rel=1e-11)
+    orders = dict(kv.split("=") for kv in meta["mesh_orders"].split(", "))
+    # mesh frequencies at 3000 rpm: 1450 Hz and 1450 * 25 / 49 Hz
+    assert float(orders["mesh1"]) * 3000 / 60 == pytest.approx(1450.0, rel=1e-11)
+    assert float(orders["mesh2"]) * 3000 / 60 == pytest.approx(1450.0 * 25 / 49, rel=1e-11)
