@@ -214,6 +214,7 @@ def select_streams(cfg, params: RunParameters) -> list[StreamSpec]:
         displacement_nodes=tuple(params.displacement_nodes),
         acceleration_nodes=tuple(params.acceleration_nodes),
         has_mesh=bool(cfg.meshes),
+        n_meshes=len(cfg.meshes),
     )
     if HOUSING_STREAM in params.streams and cfg.bearings:
         from gear_rotor_sim.sensors.housing import housing_channels
@@ -339,6 +340,7 @@ def record_run(
     from gear_rotor_sim.recording.writer import McapRecorder
     from gear_rotor_sim.sensors.housing import append_housing
     from gear_rotor_sim.simulator import Simulator
+    from gear_rotor_sim.system import drivetrain_metadata
 
     cfg, specs = validate_run(params)
     faults = fault_specs(params, cfg)
@@ -359,6 +361,7 @@ def record_run(
     )
     meta = {"generator": "gear-rotor-sim record", **{k: _text(v) for k, v in params.as_dict().items()}}
     meta["faults"] = truth_json(faults)
+    meta.update(drivetrain_metadata(cfg))  # per-shaft speed ratios, mesh orders
     meta.update(custom_data or {})
     steps = list(params.schedule)
     samples = {s.topic: 0 for s in specs}

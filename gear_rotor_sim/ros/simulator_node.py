@@ -342,6 +342,12 @@ class SimulatorNode(Node):
         except FaultError as exc:
             raise ParamError(f"faults_file: {faults_file}: {exc}") from exc
         self._faults = NodeFaults(cfg, initial)
+        self._cfg = cfg
+        if len(cfg.meshes) > 1:  # a multi-stage rig: the DTE stream carries every mesh's DTE and force
+            per_mesh = default_streams(0, n_meshes=len(cfg.meshes))[0].channels
+            self._streams = [
+                StreamSpec(sp.name, per_mesh, sp.frame_id) if sp.name == "dte" else sp for sp in self._streams
+            ]
         available = {name for name, _unit in Simulator.available_channels(cfg)}
         self._housing = self._housing_model()
         channels = [c for s in self._streams if s.name != "housing_accelerations" for c in s.channels]
@@ -392,6 +398,7 @@ class SimulatorNode(Node):
 
     def _open_recorder(self, path: str, flush_period_s: float) -> Any:
         from gear_rotor_sim.recording.writer import McapRecorder, RecordingError, qos_profile
+        from gear_rotor_sim.system import drivetrain_metadata
 
         reliable = self._values["stream_qos.reliability"] == "reliable"
         offered = dict(qos_profile("reliable" if reliable else "sensor_data"))
@@ -400,7 +407,13 @@ class SimulatorNode(Node):
         from gear_rotor_sim.recording.record_cli import latched_qos
 
         try:
-            rec = McapRecorder(path, self._streams, qos=offered, flush_period_s=flush_period_s)
+            rec = McapRecorder(
+                path,
+                self._streams,
+                qos=offered,
+                flush_period_s=flush_period_s,
+                custom_data=drivetrain_metadata(self._cfg),  # per-shaft speed ratios, mesh orders
+            )
             rec.add_topic(FAULTS_TOPIC, schemas.FAULT_STATE, qos=latched_qos())
             return rec
         except (OSError, ValueError, RecordingError) as exc:
