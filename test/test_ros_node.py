@@ -403,7 +403,10 @@ def test_sigterm_finalises_recording(experiment: Experiment) -> None:
         assert summary is not None and summary.statistics is not None
         for _schema, channel, _message, msg in reader.iter_decoded_messages(log_time_order=True):
             recorded.setdefault(channel.topic, []).append(msg)
-    assert set(recorded) == {"/gear_rotor/dte", "/gear_rotor/bearing_forces", "/gear_rotor/displacements"}
+    assert set(recorded) == {
+        "/gear_rotor/dte", "/gear_rotor/bearing_forces", "/gear_rotor/displacements", "/gear_rotor/faults"
+    }  # fmt: skip
+    assert all(len(m.faults) == 0 for m in recorded["/gear_rotor/faults"])  # healthy ground truth
     dte = recorded["/gear_rotor/dte"]
     assert [m.sequence for m in dte] == list(range(len(dte)))
     assert len(dte) >= max(live) + 1  # everything published is recorded
