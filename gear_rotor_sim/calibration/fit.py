@@ -609,9 +609,11 @@ class Calibrator:
                 out = out.combo(shifted[key], wt)
             return out
 
+        # tooth index: best over two depths (at one fixed depth the envelope penalty of an overshoot
+        # can favour a neighbouring tooth)
         best = (np.inf, 0)
         for i in range(z):
-            v = self._chi2(cur.combo(sig(0.45, i), 1.0))
+            v = min(self._chi2(cur.combo(sig(d, i), 1.0)) for d in (0.2, 0.45))
             if v < best[0]:
                 best = (v, i)
         i_best = best[1]
