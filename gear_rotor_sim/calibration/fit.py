@@ -244,6 +244,15 @@ class Calibrator:
         Geometry for the bearing-defect candidates.
     log : callable, optional
         Progress messages.
+    baseline : list of Effect, optional
+        Baseline parameter sets fixed from a healthy reference record (``--baseline``); default:
+        fitted on this record, competing with the effects.
+    baseline_source : str, optional
+        Reported ``baseline.source`` (the reference file).
+    carrier_tolerance : float, optional
+        Model-form tolerance of the mesh carriers from the reference record.
+    baseline_sets : list of Effect, optional
+        Baseline sets offered (default :func:`baseline_candidates` of the rig).
     """
 
     def __init__(
@@ -261,6 +270,7 @@ class Calibrator:
         baseline: Sequence[Effect] | None = None,
         baseline_source: str | None = None,
         carrier_tolerance: float | None = None,
+        baseline_sets: Sequence[Effect] | None = None,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -296,6 +306,8 @@ class Calibrator:
         self.fit_baseline = baseline is None
         self.baseline_source = baseline_source or ("measurement" if baseline is None else "given")
         self.fixed_carrier_tolerance = carrier_tolerance
+        #: baseline parameter sets offered (default: the library's for the rig)
+        self.baseline_sets = list(baseline_candidates(cfg) if baseline_sets is None else baseline_sets)
         #: effects found before the baseline stage (temperature from the static content)
         self.pre_effects: list[Effect] = []
 
@@ -883,7 +895,7 @@ class Calibrator:
         if not self.fit_baseline:
             return updates
         N = score.n_total
-        for b in baseline_candidates(self.runner.cfg):
+        for b in self.baseline_sets:
             if score.error <= self.fit.stop_error:
                 break
             cur = self._features(self.base_raw)
@@ -1074,7 +1086,7 @@ class Calibrator:
             used = {a_.label for a_ in (*accepted, *self.baseline)} | rejected_labels
             pool = list(self.candidates)
             if self.fit_baseline:
-                pool += baseline_candidates(self.runner.cfg)
+                pool += self.baseline_sets
             for e in pool:
                 if e.label in used or not e.applicable(self.runner.cfg):
                     continue
