@@ -703,15 +703,33 @@ class Calibrator:
         if shaft_name not in names:
             return True
         own = names.index(shaft_name)
-        gain = self.cmp.comb_chi2(self._cur_feat, cur) - self.cmp.comb_chi2(fit.feats, fit.score)
-        others = np.delete(gain, own)
-        ok = gain[own] > self.fit.bic_threshold + math.log(self.n_total) and gain[own] >= float(
-            np.max(others, initial=-np.inf)
+        before = self.cmp.comb_chi2(self._cur_feat, cur)
+        gain = before - self.cmp.comb_chi2(fit.feats, fit.score)
+        ok = gain[own] > self.fit.bic_threshold + math.log(self.n_total)
+        # the mating wheel's tooth candidate of this round: the true wheel explains its own comb and
+        # what leaks into the other shaft's synchronous average; the wrong one cannot do both
+        rival = next(
+            (
+                f
+                for f in getattr(self, "_round_fits", [])
+                if isinstance(f.effect, ToothDamage)
+                and f.effect.mesh == e.mesh
+                and f.effect.wheel != e.wheel
+                and f.feats is not None
+            ),
+            None,
         )
+        rival_gain = (
+            float(np.sum(before - self.cmp.comb_chi2(rival.feats, rival.score)))
+            if rival is not None
+            else -np.inf
+        )
+        if ok and float(np.sum(gain)) < rival_gain:
+            ok = False
         if not ok:
             self.notes.append(
-                f"{e.label}: not claimed, the order comb of its wheel's shaft gains {gain[own]:.3g} "
-                f"(other shafts {', '.join(f'{g:.3g}' for g in others)})"
+                f"{e.label}: not claimed, comb gain on its wheel's shaft {gain[own]:.3g}, on all shafts "
+                f"{float(np.sum(gain)):.3g} (the other wheel's tooth: {rival_gain:.3g})"
             )
         return bool(ok)
 
@@ -1125,6 +1143,7 @@ class Calibrator:
             table.sort(key=lambda r: -r.get("delta_bic", -np.inf))
             rounds.append(table)
             fits.sort(key=lambda f: -f.delta_bic)
+            self._round_fits = fits
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
             chosen = None
             for f in fits[:3]:
