@@ -100,6 +100,7 @@ class CandidateFit:
     delta_bic: float = 0.0
     explained: float = 0.0
     feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
+    comb_explained: float = 0.0  # share of the order-comb excess explained (tooth damage)
 
     @property
     def name(self) -> str:
@@ -726,6 +727,11 @@ class Calibrator:
         )
         if ok and float(np.sum(gain)) < rival_gain:
             ok = False
+        # share of the comb's own excess it explains (its relative signature), used next to the
+        # share of the whole excess: model-form misfit of the carriers must not mask a comb that
+        # the tooth explains
+        excess = float(np.sum(before)) - self.cmp.comb_count()
+        fit.comb_explained = float(np.sum(gain)) / excess if excess > 0 else 0.0
         if not ok:
             self.notes.append(
                 f"{e.label}: not claimed, comb gain on its wheel's shaft {gain[own]:.3g}, on all shafts "
@@ -1147,8 +1153,11 @@ class Calibrator:
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
             chosen = None
             for f in fits[:3]:
-                if f.delta_bic <= self.fit.bic_threshold or f.explained < self.fit.min_explained:
+                share = max(f.explained, f.comb_explained if f in admissible else 0.0)
+                if f.delta_bic <= self.fit.bic_threshold:
                     break
+                if share < self.fit.min_explained:
+                    continue
                 if f not in admissible:
                     self.notes.append(
                         f"{f.effect.label}: not claimed, its characteristic lines do not carry the "
@@ -1201,7 +1210,11 @@ class Calibrator:
                     rejected_labels.add(ver.effect.label)
                     self.notes.append(f"{ver.effect.label}: not claimed ({verdict})")
                     continue
-                if dbic > self.fit.bic_threshold and expl >= self.fit.min_explained and p_sep >= 0.5:
+                if (
+                    dbic > self.fit.bic_threshold
+                    and max(expl, f.comb_explained) >= self.fit.min_explained
+                    and p_sep >= 0.5
+                ):
                     ver.delta_bic, ver.explained = dbic, expl
                     chosen = (ver, runner_up)
                     break

@@ -783,6 +783,11 @@ class Comparison:
                 out[s] += 2.0 * float(np.sum((np.abs(r) ** 2 / self.order_sigma2(c, s, mg))[k]))
         return out
 
+    def comb_count(self) -> int:
+        """Number of real comb features (non-carrier orders, 2 per complex coefficient)."""
+        n = sum(int(np.count_nonzero(~self.carriers(s))) for s in range(len(self.shafts)))
+        return 2 * n * self.nc
+
     def carrier_mismatch(self, feats: ModelFeatures, score: Score) -> float:
         """Median relative misfit ``|d - g m| / |g m|`` of the significant mesh carriers (``nan`` if none)."""
         rel: list[np.ndarray] = []
