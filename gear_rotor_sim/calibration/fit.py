@@ -26,6 +26,13 @@ Procedure (``docs/calibration.md``):
    acceptance re-checked on a full simulation of the updated model. Repeat until the error is at the
    noise level, nothing qualifies, or ``max_effects`` are in.
 
+Baseline and consistency (issue 11, ``docs/calibration.md`` Sec. 8): the baseline parameter sets
+(mesh and bearing stiffness/damping scales) compete with the effects in every round but update the
+machine (``baseline_updates``) instead of being reported; with a reference record they are fitted
+there and held. A temperature offset is first screened on the static content (channel means). A
+candidate at a parameter bound or contradicting the static content is refused (``not_claimed``);
+a damaged tooth must improve its own wheel's order comb.
+
 Confidence of an accepted effect: ``P(effect) * P(best vs runner-up)``, both BIC posterior
 probabilities ``1 / (1 + exp(-Delta/2))`` (Kass & Raftery 1995), so an effect that barely beats an
 alternative explanation is reported with a low confidence. Parameter uncertainty: from the
