@@ -566,6 +566,23 @@ def merge_windows(windows: list[tuple[float, float]], gap_rpm: float) -> list[tu
     return [(float(a), float(b)) for a, b in out]
 
 
+def _fine_band(
+    case: Case,
+    lo: float,
+    hi: float,
+    settings: RunSettings,
+    step_rpm: float,
+    margin_rpm: float,
+    gap_rpm: float,
+) -> tuple[tuple[float, float], list[tuple[float, float]], np.ndarray]:
+    speeds = np.arange(max(lo - margin_rpm, 500.0), hi + margin_rpm + step_rpm / 2, step_rpm)
+    res = run_bifurcation(case, speeds, settings, workers=1, progress=False)
+    fine = res.chaotic_windows(merge_gap=1)
+    joined = [w for w in merge_windows(fine, gap_rpm) if w[1] >= lo and w[0] <= hi]
+    band = max(joined, key=lambda w: w[1] - w[0]) if joined else (float("nan"), float("nan"))
+    return band, fine, speeds
+
+
 def refine_main_band(
     case: Case,
     coarse_windows: list[tuple[float, float]],
@@ -573,6 +590,7 @@ def refine_main_band(
     step_rpm: float = 25.0,
     margin_rpm: float = 750.0,
     gap_rpm: float = 250.0,
+    check_steps_rpm: tuple[float, ...] = (20.0, 50.0),
 ) -> dict[str, Any]:
     """The Fig 6a main chaotic band with its edges resolved to ``step_rpm``.
 
@@ -580,23 +598,25 @@ def refine_main_band(
     11000 rpm) is re-swept from ``margin_rpm`` below to ``margin_rpm`` above on a ``step_rpm`` grid,
     in one segment (speeds increasing, each run continued from the previous one, as the coarse
     sweep does inside a segment). The band is the widest joined fine window overlapping the coarse
-    band; its edges are accurate to one ``step_rpm``.
+    band; its edges are accurate to one ``step_rpm``. The sweep is repeated on the grids of
+    ``check_steps_rpm`` (other speeds, other continuation paths) to show how far the edges move.
 
     Returns
     -------
     dict
         ``band_rpm`` [low, high], ``coarse_band_rpm``, ``windows_rpm`` (fine, unjoined),
-        ``step_rpm``, ``gap_rpm``, ``grid_rpm`` [first, last], ``wall_time_s``.
+        ``step_rpm``, ``gap_rpm``, ``grid_rpm`` [first, last], ``other_grids`` (``step_rpm``,
+        ``band_rpm`` per check grid), ``wall_time_s``.
     """
     lo, hi = main_band(merge_windows(coarse_windows, gap_rpm))
     if not np.isfinite(lo):
         return {"band_rpm": [float("nan"), float("nan")], "coarse_band_rpm": [lo, hi]}
-    speeds = np.arange(max(lo - margin_rpm, 500.0), hi + margin_rpm + step_rpm / 2, step_rpm)
     t0 = time.perf_counter()
-    res = run_bifurcation(case, speeds, settings, workers=1, progress=False)
-    fine = res.chaotic_windows(merge_gap=1)
-    joined = [w for w in merge_windows(fine, gap_rpm) if w[1] >= lo and w[0] <= hi]
-    band = max(joined, key=lambda w: w[1] - w[0]) if joined else (float("nan"), float("nan"))
+    band, fine, speeds = _fine_band(case, lo, hi, settings, step_rpm, margin_rpm, gap_rpm)
+    others = []
+    for step in check_steps_rpm:
+        b, _, _ = _fine_band(case, lo, hi, settings, step, margin_rpm, gap_rpm)
+        others.append({"step_rpm": step, "band_rpm": [b[0], b[1]]})
     return {
         "band_rpm": [band[0], band[1]],
         "coarse_band_rpm": [lo, hi],
@@ -604,6 +624,7 @@ def refine_main_band(
         "step_rpm": step_rpm,
         "gap_rpm": gap_rpm,
         "grid_rpm": [float(speeds[0]), float(speeds[-1])],
+        "other_grids": others,
         "wall_time_s": time.perf_counter() - t0,
     }
 

@@ -362,6 +362,18 @@ def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out:
             "Sec 4.3 text gives 13100-14600 rpm for the same figure). Fine windows: "
             f"{_fmt_windows([tuple(w) for w in fine['windows_rpm']])}."
         )
+        others = fine.get("other_grids", [])
+        if others:
+            add("")
+            add(
+                "The same re-sweep on other grids (other speeds, other continuation paths): "
+                + "; ".join(
+                    f"{o['step_rpm']:g} rpm: {o['band_rpm'][0]:.0f}-{o['band_rpm'][1]:.0f} "
+                    f"({o['band_rpm'][0] - plo:+.0f} / {o['band_rpm'][1] - phi:+.0f})"
+                    for o in others
+                )
+                + "."
+            )
         add("")
     add("Motion sequence with increasing speed (as published; runs shorter than 3 grid points absorbed):")
     add("")
