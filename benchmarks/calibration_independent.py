@@ -73,6 +73,7 @@ class Case:
 
 
 def cases(quick: bool) -> list[Case]:
+    """Healthy records first, then the faults at each operating point (a cut-short run stays balanced)."""
     out: list[Case] = []
     seed = 11
     for op, (speed, temp) in OPS.items():
@@ -83,10 +84,11 @@ def cases(quick: bool) -> list[Case]:
             extra = f"_{fault.wheel}" if fault.name == "tooth_damage" else ""  # type: ignore[union-attr]
             out.append(Case(f"{op}_{fault.name}{extra}", speed, temp, f, seed))
             seed += 1
+    healthy = []
     for speed, temp in QUICK_HEALTHY if quick else HEALTHY:
-        out.append(Case(f"healthy_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, seed))
+        healthy.append(Case(f"healthy_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, seed))
         seed += 1
-    return out
+    return healthy + out
 
 
 def calibrate_command() -> list[str]:
