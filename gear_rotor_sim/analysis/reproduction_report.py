@@ -363,6 +363,15 @@ def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out:
             f"{_fmt_windows([tuple(w) for w in fine['windows_rpm']])}."
         )
         add("")
+    add("Motion sequence with increasing speed (as published; runs shorter than 3 grid points absorbed):")
+    add("")
+    for key in p["fig6"]:
+        if key == "points":
+            continue
+        seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in p["fig6"][key]["sequence"])
+        add(f"- {PANEL_TITLES.get(key, key)}: as published: {seq}.")
+        add(f"  Paper: {PAPER_SEQUENCE.get(key, '-')}.")
+    add("")
     add(f"![as-published Fig 6](figures/{PUBLISHED_CONFIG}/fig6_bifurcation.png)")
     add("")
     add("### Fig 7: RMS total force of bearing 2 (A#)")
