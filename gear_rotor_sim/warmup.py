@@ -14,8 +14,9 @@ rebuilds); then the multi-mesh kernel on the two-stage example (``two_stage_exam
 
 ``--if-changed`` skips the run when the stamp written by the last warm-up still matches: numba's and
 numpy's versions, the Python version, the CPU numba compiles for and the modification time and
-size of every source file holding a kernel (the quantities numba itself checks before reusing a
-cached function). The stamp lives in the cache directory, so deleting the cache also re-runs it.
+size of every source file holding a kernel (:func:`kernel_sources`, found by their ``@njit``; the
+quantities numba itself checks before reusing a cached function). The stamp lives in the cache
+directory, so deleting the cache also re-runs it.
 """
 
 from __future__ import annotations
@@ -28,15 +29,21 @@ import sys
 import time
 from pathlib import Path
 
-#: Source files whose functions numba compiles and caches.
-KERNEL_SOURCES = (
-    "solver/kernels.py",
-    "solver/mesh_kernel.py",
-    "solver/meshes_kernel.py",
-    "solver/decimate.py",
-)
 STAMP_NAME = "gear_rotor_sim_warmup.stamp"
 _PACKAGE = Path(os.path.abspath(os.path.dirname(__file__)))  # as imported, like numba's locators
+_MARKERS = ("@njit", "@jit", "numba.njit", "numba.jit")
+
+
+def kernel_sources() -> list[str]:
+    """Package-relative paths of the source files holding numba-compiled functions."""
+    out = []
+    for path in sorted(_PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts or path.name == "warmup.py":
+            continue
+        text = path.read_text(encoding="utf-8", errors="replace")
+        if any(m in text for m in _MARKERS):
+            out.append(path.relative_to(_PACKAGE).as_posix())
+    return out
 
 
 def cache_dir() -> Path:
@@ -68,7 +75,7 @@ def stamp() -> str:
     except Exception:  # pragma: no cover - llvmlite is a numba dependency
         cpu, features = platform.processor(), ""
     parts = [numba.__version__, numpy.__version__, sys.version, platform.machine(), str(cpu), str(features)]
-    for rel in KERNEL_SOURCES:
+    for rel in kernel_sources():
         st = (_PACKAGE / rel).stat()
         parts.append(f"{rel}:{st.st_mtime!r}:{st.st_size}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()

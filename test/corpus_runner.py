@@ -157,6 +157,19 @@ def run_node_runtime(case: dict) -> dict[str, Any]:
     return {"outcome": "refused" if bad else "accepted", "message": bad[0].reason if bad else ""}
 
 
+def run_serve_options(case: dict) -> dict[str, Any]:
+    """``gear-rotor-sim serve`` with the case's options, in-process: exit status and stderr line."""
+    from gear_rotor_sim.cli import build_parser
+    from gear_rotor_sim.live import serve
+
+    args = build_parser("serve").parse_args(["serve", *case["args"]])
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = serve.run(args)
+    lines = err.getvalue().strip().splitlines()
+    return {"outcome": "refused" if code else "accepted", "message": lines[-1] if lines else "", "exit": code}
+
+
 # ----------------------------------------------------------------------------------- report
 def _row(cells: list[str]) -> str:
     root = str(CORPUS.parent.parent) + "/"  # paths relative to the repository root
@@ -239,6 +252,26 @@ def main() -> int:
                     change,
                     case["expect"],
                     f"{r['outcome']}: {r['message']}"[:220],
+                    "yes" if ok else "NO",
+                ]
+            )
+        )
+    lines += ["", "### `gear-rotor-sim serve` options", ""]
+    lines += [_row(["case", "options", "expected", "exit", "stderr", "as expected"]), _row(["---"] * 6)]
+    for case in requests["serve_options"]:
+        r = run_serve_options(case)
+        ok = matches(case, r["outcome"], r["message"]) and r["exit"] == (
+            2 if case["expect"] == "refused" else 0
+        )
+        failures += not ok
+        lines.append(
+            _row(
+                [
+                    case["case"],
+                    f"`{' '.join(case['args'])}`",
+                    case["expect"],
+                    str(r["exit"]),
+                    r["message"],
                     "yes" if ok else "NO",
                 ]
             )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
 import time
@@ -225,3 +226,50 @@ def test_chunk_pacer_holds_real_time_and_slows_down_when_late():
     assert now[0] == pytest.approx(t_late + 0.05, rel=1e-12)
     with pytest.raises(ValueError, match="real_time_factor"):
         ChunkPacer(0.0)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.ros
+def test_node_serves_foxglove_with_parameter(tmp_path):
+    """The ROS node with ``foxglove_port`` serves the same channels; client setpoints reach it."""
+    pytest.importorskip("rclpy", reason="the simulator node needs rclpy (scripts/setup_env.sh)")
+    from gear_rotor_sim.ros.demo import ros_environment, share_file, start_process, stop_process
+
+    env = ros_environment()
+    port = _free_port()
+    params = share_file("config/simulator_node.yaml", env)
+    args = ["--ros-args", "--params-file", str(params), "-p", f"foxglove_port:={port}"]
+    args += ["-p", "speed_ramp_rpm_per_s:=1.0e7"]  # a step: no slow ramp to wait through
+    node = start_process("simulator", args, env, tmp_path / "simulator.log")
+    client = None
+    try:
+        deadline = time.monotonic() + 120
+        while client is None:
+            try:
+                client = FoxgloveClient(f"ws://127.0.0.1:{port}")
+            except OSError:
+                assert node.poll() is None, (tmp_path / "simulator.log").read_text()[-2000:]
+                assert time.monotonic() < deadline, "the node's Foxglove server did not start"
+                time.sleep(0.5)
+        client.wait_for(lambda c: set(STREAM_TOPICS + EXTRA_TOPICS) <= set(c.topics()), 60.0)
+        client.subscribe(["/gear_rotor/dte", "/gear_rotor/status"])
+        state: dict = {}
+        _collect(client, 0.3, state)
+        speed = client.advertise("/gear_rotor/setpoint/speed_rpm", "std_msgs/Float64", {"type": "object"})
+        client.publish(speed, b'{"data": 3300}')
+        client.publish(speed, b'{"data": -5}')
+        deadline = time.monotonic() + 60
+        while state.get("status", {}).get("target_speed_rpm") != 3300.0:
+            assert time.monotonic() < deadline, state.get("status")
+            _collect(client, 0.1, state)
+        assert state["status"]["setpoints_refused"] == 1
+        assert "speed_rpm setpoint -5.0 is negative" in state["status"]["last_refusal"]
+    finally:
+        if client is not None:
+            client.close()
+        assert stop_process(node) == 0, (tmp_path / "simulator.log").read_text()[-2000:]

@@ -189,13 +189,24 @@ STATUS_SCHEMA: dict[str, Any] = {
         "setpoints_accepted": {"type": "integer", "minimum": 0},
         "setpoints_refused": {"type": "integer", "minimum": 0},
         "last_refusal": {"type": "string"},
+        "wall_time_s": {"type": "number", "description": "server's Unix time when sent (latency)"},
     },
-    "required": ["timestamp", *STATUS_FIELDS, "setpoints_accepted", "setpoints_refused", "last_refusal"],
+    "required": [
+        "timestamp",
+        *STATUS_FIELDS,
+        "setpoints_accepted",
+        "setpoints_refused",
+        "last_refusal",
+        "wall_time_s",
+    ],
 }
 
 
-def status_message(fields: dict[str, float], t: float, accepted: int, refused: int, last: str) -> dict:
-    """``/gear_rotor/status`` at simulated time ``t`` (``fields``: :data:`STATUS_FIELDS`)."""
+def status_message(
+    fields: dict[str, float], t: float, accepted: int, refused: int, last: str, wall_time_s: float
+) -> dict:
+    """``/gear_rotor/status`` at simulated time ``t`` (``fields``: :data:`STATUS_FIELDS`), sent at
+    Unix time ``wall_time_s``."""
     sec, nsec = time_to_stamp(max(0.0, float(t)))
     return {
         "timestamp": {"sec": sec, "nsec": nsec},
@@ -203,6 +214,7 @@ def status_message(fields: dict[str, float], t: float, accepted: int, refused: i
         "setpoints_accepted": int(accepted),
         "setpoints_refused": int(refused),
         "last_refusal": last,
+        "wall_time_s": float(wall_time_s),
     }
 
 

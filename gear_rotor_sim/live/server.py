@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -252,7 +253,9 @@ class LiveServer:
     def publish_status(self, fields: dict[str, float], t: float) -> None:
         """Publish ``/gear_rotor/status`` (``fields``: :data:`messages.STATUS_FIELDS`)."""
         with self._count_lock:
-            msg = messages.status_message(fields, t, self.accepted, self.refused, self.last_refusal)
+            msg = messages.status_message(
+                fields, t, self.accepted, self.refused, self.last_refusal, time.time()
+            )
         self._status.log(msg, log_time=round(t * 1e9))
 
     def stop(self) -> None:

@@ -22,6 +22,7 @@ same map is run with the dense real transition matrix ``T = (I - hA/2)^-1 (I + h
 
 from __future__ import annotations
 
+import hashlib
 import re
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -330,13 +331,37 @@ def _block_eig(a_s: np.ndarray, blocks: list[np.ndarray], n: int) -> tuple[np.nd
     return lam, phi
 
 
+#: Bases by content (state matrix, force columns, mesh rows, speed): simulators of one machine that
+#: differ only in effects without new matrices (a calibration runs dozens) diagonalise once.
+_BASIS_MEMO: OrderedDict[str, Basis] = OrderedDict()
+_BASIS_MEMO_SIZE = 6
+
+
 def eigen_basis(lin: LinearModel, omega: float, force_dense: bool = False) -> Basis:
     """Diagonalise the state matrix at input speed ``omega`` (rad/s); fall back to dense if needed.
 
     Kept modes are ordered with the *forced* modes first: those that a force column other than the
     static load reaches, or that the mesh deflection reads (see :func:`mesh_kernel.run_chunk_one_mesh`).
+    Memoised on the content of everything it reads (``_BASIS_MEMO``); bases are never modified.
     """
     a = lin.state_matrix(omega)
+    h = hashlib.sha1()
+    for arr in (a, lin.MinvF, lin.V, lin.MinvK):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    h.update(repr((float(omega), bool(force_dense), a.shape, np.shape(lin.MinvF))).encode())
+    key = h.hexdigest()
+    hit = _BASIS_MEMO.get(key)
+    if hit is not None:
+        _BASIS_MEMO.move_to_end(key)
+        return hit
+    out = _eigen_basis(lin, omega, force_dense, a)
+    _BASIS_MEMO[key] = out
+    if len(_BASIS_MEMO) > _BASIS_MEMO_SIZE:
+        _BASIS_MEMO.popitem(last=False)
+    return out
+
+
+def _eigen_basis(lin: LinearModel, omega: float, force_dense: bool, a: np.ndarray) -> Basis:
     n = lin.nfree
     # balance q and v: eigenvectors of S^-1 A S with S = diag(I, s I) (much better conditioned)
     sc = float(np.sqrt(np.median(np.abs(np.diag(lin.MinvK))) + 1.0))
