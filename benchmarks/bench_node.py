@@ -11,6 +11,7 @@ invalid mixed) at real time factor 1, and prints the largest gap between stream 
 node's memory before and after.
 
     . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--burst]
+        [--model NAME]
 """
 
 from __future__ import annotations
@@ -39,11 +40,14 @@ from gear_rotor_sim.ros.demo import (
 GOALS = {3000.0: 10.0, 20000.0: 2.0}
 
 
-def _sim_args(env: dict[str, str], speed: float, rtf: float, mcap: Path) -> list[str]:
+def _sim_args(
+    env: dict[str, str], speed: float, rtf: float, mcap: Path, model: str | None = None
+) -> list[str]:
     return [
         "--ros-args",
         "--params-file",
         str(share_file("config/simulator_node.yaml", env)),
+        *(["-p", f"model:={model}"] if model else []),
         "-p",
         f"speed_rpm:={speed}",
         "-p",
@@ -70,12 +74,16 @@ def _diag_points(probe: Probe) -> list[tuple[float, float]]:
     return out
 
 
-def run_once(speed: float, warmup_s: float, measure_s: float, workdir: Path) -> float:
-    """Achieved real-time factor of one node run at ``speed`` rpm."""
+def run_once(
+    speed: float, warmup_s: float, measure_s: float, workdir: Path, model: str | None = None
+) -> float:
+    """Achieved real-time factor of one node run at ``speed`` rpm (``model``: the node's default)."""
     env = ros_environment()
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     mcap = workdir / f"bench_{int(speed)}.mcap"
-    sim = start_process("simulator", _sim_args(env, speed, 1.0e4, mcap), env, workdir / "simulator.log")
+    sim = start_process(
+        "simulator", _sim_args(env, speed, 1.0e4, mcap, model), env, workdir / "simulator.log"
+    )
     probe = Probe(topics=("/gear_rotor/dte",), reliable=False, keep_data=False)
     try:
         wait_for(
@@ -152,16 +160,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--warmup-s", type=float, default=3.0)
     parser.add_argument("--measure-s", type=float, default=8.0)
     parser.add_argument("--burst", action="store_true", help="run the setpoint-flood check instead")
+    parser.add_argument(
+        "--model", default=None, help="rig config of the node (e.g. two_stage_example; default: the node's)"
+    )
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="bench_node_") as tmp:
         workdir = Path(tmp)
         if args.burst:
             return run_burst(workdir)
-        print(f"node end to end (simulate, publish default streams, record MCAP); median of {args.runs} runs")
+        print(
+            f"node end to end (simulate, publish default streams, record MCAP); median of {args.runs} runs"
+            + (f"; model {args.model}" if args.model else "")
+        )
         results = {}
         for speed in args.speeds:
             results[speed] = statistics.median(
-                run_once(speed, args.warmup_s, args.measure_s, workdir) for _ in range(args.runs)
+                run_once(speed, args.warmup_s, args.measure_s, workdir, args.model) for _ in range(args.runs)
             )
         print("\nspeed_rpm  achieved_RTF  goal")
         for speed, rtf in results.items():

@@ -20,6 +20,15 @@ because the machine is shared.
     periods, the default dt rule, continuation) over 500-20000 rpm: 40 speeds on one worker, extrapolated
     to 400 (labelled), and the full 400 speeds on the default (2) workers, set-up included.
 
+(f) the two-stage example, full against reduced model (``modal_cutoff_hz="auto"``, the default on
+    multi-mesh rigs) at 3000 / 7000 / 12000 / 20000 rpm, interleaved: RTF, retained modes, speed-up and
+    the RMS DTE difference of the last chunk (same dt rule, sample by sample).
+(e) the two-stage example (``config/two_stage_example.yaml``, three shafts, two meshes, the
+    multi-mesh kernel) next to the paper gearbox: ``Simulator.advance`` RTF with the DTE channels only
+    (``mesh1_dte``, ``mesh2_dte`` against ``dte``) at 3000 rpm input, the two simulators advanced
+    alternately (interleaved chunks, so both see the same machine phase), and the ratio; plus the
+    integration steps per second of each.
+
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
 reproduce command imports it (``quick=True`` takes well under a minute).
@@ -37,6 +46,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from gear_rotor_sim.config import load_config
 from gear_rotor_sim.examples import paper_gearbox
 from gear_rotor_sim.simulator import Simulator
 from gear_rotor_sim.solver.newmark import (
@@ -155,6 +165,71 @@ def simulator_rtf(
     return r
 
 
+def interleaved_rtf(cases: dict[str, tuple], rpm: float, chunk_s: float, repeats: int) -> dict:
+    """RTF of several simulators advanced alternately (chunk by chunk) after a warm-up; medians.
+
+    ``cases``: name -> (config, channels[, Simulator keyword arguments]). Each case's last block is kept
+    (``"last"``): the simulators advance in lockstep, so blocks of equal cases compare sample by sample.
+    """
+    sims = {
+        k: Simulator(c[0], rpm, 25.0, OUTPUT_RATE_HZ, channels=c[1], **(c[2] if len(c) > 2 else {}))
+        for k, c in cases.items()
+    }
+    last: dict[str, np.ndarray] = {}
+    for sim in sims.values():
+        sim.advance(0.1)  # warm-up: kernels loaded, basis built, transient start
+    wall: dict[str, list[float]] = {k: [] for k in sims}
+    cpu: dict[str, list[float]] = {k: [] for k in sims}
+    steps: dict[str, float] = {}
+    load0 = os.getloadavg()[0]
+    for _ in range(repeats):
+        for k, sim in sims.items():
+            t0, c0 = time.perf_counter(), time.process_time()
+            last[k] = np.asarray(sim.advance(chunk_s).data)
+            wall[k].append(time.perf_counter() - t0)
+            cpu[k].append(time.process_time() - c0)
+            steps[k] = sim.last_chunk_stats["steps"]
+    out: dict = {}
+    for k, sim in sims.items():
+        w, c = float(np.median(wall[k])), float(np.median(cpu[k]))
+        out[k] = {
+            "rtf": chunk_s / w,
+            "rtf_cpu": chunk_s / c,
+            "steps_per_s": steps[k] / w,
+            "dt_s": sim.dt,
+            "channels": list(sim.channels),
+            "load": (load0, os.getloadavg()[0]),
+            "modes": int(sim._stepper.map.basis.lam.size),
+            "last": last[k],
+        }
+    return out
+
+
+def reduction_table(
+    cfg: object, channels: list[str], rpms: Sequence[float], chunk_s: float, repeats: int
+) -> dict:
+    """Full against reduced (``modal_cutoff_hz="auto"``) model, interleaved, DTE channels: RTF, modes,
+    and the RMS difference of each channel over the last chunk (same dt rule, same samples)."""
+    out: dict = {}
+    for rpm in rpms:
+        r = interleaved_rtf(
+            {
+                "full": (cfg, channels, {"modal_cutoff_hz": None}),
+                "reduced": (cfg, channels, {"modal_cutoff_hz": "auto"}),
+            },
+            rpm,
+            chunk_s,
+            repeats,
+        )
+        full, red = r["full"].pop("last"), r["reduced"].pop("last")
+        rms_f = np.sqrt(np.mean(full**2, axis=0))
+        rms_r = np.sqrt(np.mean(red**2, axis=0))
+        r["rms_dte_error_pct"] = [float(x) for x in 100.0 * (rms_r - rms_f) / rms_f]
+        r["speedup"] = r["reduced"]["rtf"] / r["full"]["rtf"]
+        out[f"{rpm:.0f}rpm"] = r
+    return out
+
+
 def setup_times(cfg: object, repeats: int) -> dict:
     """System assembly + linear model per temperature; eigendecomposition per speed; step map per dt."""
     out: dict = {}
@@ -228,6 +303,26 @@ def measure(quick: bool = True) -> dict:
                 continue
             res["simulator"][f"{name}_{rpm:.0f}rpm"] = simulator_rtf(cfg, rpm, ch, chunk, repeats)
     res["setup"] = setup_times(cfg, repeats)
+    two = interleaved_rtf(
+        {
+            "paper": (cfg, ["dte"]),
+            "two_stage": (load_config("two_stage_example"), ["mesh1_dte", "mesh2_dte"]),
+        },
+        3000.0,
+        chunk,
+        repeats,
+    )
+    two["ratio"] = two["two_stage"]["rtf"] / two["paper"]["rtf"]
+    for k in ("paper", "two_stage"):
+        two[k].pop("last")
+    res["two_stage_3000rpm"] = two
+    res["two_stage_reduction"] = reduction_table(
+        load_config("two_stage_example"),
+        ["mesh1_dte", "mesh2_dte"],
+        (3000.0, 7000.0, 12000.0, 20000.0),
+        0.1 if quick else 0.3,
+        3 if quick else repeats,
+    )
     if not quick:
         one = sweep_time(40, 1)
         one["extrapolated_400_s"] = one["wall_s"] * 10.0
@@ -286,6 +381,27 @@ def report(res: dict) -> None:
             f"EXTRAPOLATED to 400 speeds on one core: {o['extrapolated_400_s']:.0f} s"
         )
         print(f"  400 speeds, default workers (2), measured: {f['wall_s']:.1f} s wall ({la(f)})")
+    t = res["two_stage_3000rpm"]
+    print("\n(e) two-stage example next to the paper gearbox, 3000 rpm input, DTE channels only, interleaved")
+    for key in ("paper", "two_stage"):
+        r = t[key]
+        print(
+            f"  {key:10s} {','.join(r['channels']):20s} RTF {r['rtf']:7.2f} | {r['rtf_cpu']:7.2f}  "
+            f"{r['steps_per_s'] / 1e6:6.3f} M steps/s wall (dt {r['dt_s'] * 1e6:.3f} us; {la(r)})"
+        )
+    print(f"  two-stage / paper RTF: {t['ratio']:.3f} (goal >= 0.40)")
+    print(
+        "\n(f) two-stage example, full against reduced model (modal_cutoff_hz='auto'), DTE channels, "
+        "interleaved"
+    )
+    for key, r in res["two_stage_reduction"].items():
+        f, d = r["full"], r["reduced"]
+        err = ", ".join(f"{e:+.3f}" for e in r["rms_dte_error_pct"])
+        print(
+            f"  {key:9s} full {f['modes']:3d} modes RTF {f['rtf']:6.2f} | {f['rtf_cpu']:6.2f}   reduced "
+            f"{d['modes']:3d} modes RTF {d['rtf']:6.2f} | {d['rtf_cpu']:6.2f}  speed-up {r['speedup']:.2f}  "
+            f"RMS DTE reduced - full: {err} %  (dt {f['dt_s'] * 1e6:.3f} us)"
+        )
     print(f"\nload average at end {tuple(round(x, 2) for x in res['load_end'])}")
     print(
         "\nGOALS: steps/s (simulate_steady, DTE only, min over 3000/20000 rpm) "

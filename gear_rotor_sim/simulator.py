@@ -45,6 +45,7 @@ from gear_rotor_sim.solver.newmark import (
     _effect_arrays,
     available_channels,
     check_steps_per_mesh,
+    mesh_frequencies_hz,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
@@ -56,6 +57,11 @@ __all__ = ["Effect", "SimulationDiverged", "Simulator", "StepContext"]
 
 #: Temperature quantum of the system cache, C (a ramp rebuilds the system at these steps).
 TEMPERATURE_QUANTUM_C = 0.5
+#: Modal reduction (``modal_cutoff_hz="auto"``): the modes above the larger of this many output rates
+#: and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency are carried by their
+#: static response (residual flexibility); docs/solver.md, "Modal reduction".
+MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
+MODAL_CUTOFF_MESH_HARMONICS = 4.0
 #: The dt rule uses at least this speed (dt at standstill stays bounded).
 DT_RULE_SPEED_FLOOR_RPM = 60.0
 #: Highest accepted integration rate; an output rate above it is refused.
@@ -152,6 +158,13 @@ class Simulator:
         ``steps_per_mesh`` throughout.
     speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
         Ramp rates toward new targets (> 0; ``inf`` jumps).
+    modal_cutoff_hz : "auto", float or None
+        Modal reduction with static correction: the modes above the cut-off follow the excitation
+        quasi-statically (residual flexibility) and only the retained ones are integrated by the exact
+        map (docs/solver.md, "Modal reduction"). "auto": on multi-mesh rigs, the larger of 2 output
+        rates and 4 harmonics of the highest mesh frequency; single-mesh rigs stay full. None: full
+        model. A number: that cut-off (Hz) on any rig (a single-mesh rig then runs the multi-mesh
+        kernel, events not located).
     effects : sequence of Effect
     locate_events : bool, optional
         Split integration steps at the mesh-table jumps and contact changes inside them (second-order
@@ -178,8 +191,18 @@ class Simulator:
         force_dense: bool = False,
         locate_events: bool | None = None,
         contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
+        modal_cutoff_hz: float | str | None = "auto",
     ) -> None:
         _check_speed(speed_rpm)
+        cut_ok = modal_cutoff_hz is None or modal_cutoff_hz == "auto"
+        if not cut_ok and isinstance(modal_cutoff_hz, int | float):
+            cut_ok = bool(np.isfinite(modal_cutoff_hz) and modal_cutoff_hz > 0)
+        if not cut_ok:
+            raise ValueError(
+                f"modal_cutoff_hz: {modal_cutoff_hz!r} must be 'auto', None (full model) or a "
+                "frequency > 0 Hz"
+            )
+        self.modal_cutoff_hz = modal_cutoff_hz
         _check_temperature(temperature_c)
         if not (np.isfinite(output_rate_hz) and 0 < output_rate_hz <= MAX_INTEGRATION_RATE_HZ):
             raise ValueError(
@@ -311,9 +334,9 @@ class Simulator:
                 rate = max(rate, self.contact_loss_rate_hz)
             stepper = self._systems[self._tq_cur][1]
             light = light_mesh_modes(stepper.lin, stepper.basis(quantize_speed_rpm(s0) * 2.0 * np.pi / 60.0))
-            for sp in (s0, s1):
-                fm = mesh_frequency_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM))
-                rate = max(rate, resonance_rate_hz(fm, light))
+            for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
+                for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
+                    rate = max(rate, resonance_rate_hz(fm, light))
             rate = min(rate, MAX_STEPS_PER_MESH * f)
         return max(1, int(np.ceil(rate / self.output_rate_hz * (1 - 1e-12))))
 
@@ -328,8 +351,27 @@ class Simulator:
     def dt(self) -> float:
         return 1.0 / (self._k * self.output_rate_hz)
 
+    def _cutoff_hz(self, system: AssembledSystem, speed_rpm: float) -> float | None:
+        """Modal cut-off of the reduced model at a speed (None: full model).
+
+        ``"auto"``: on multi-mesh rigs (the multi-mesh kernel) the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR``
+        output rates and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency at the
+        quantised speed; single-mesh rigs stay on the full model (the located sub-steps of the
+        single-mesh kernel take no reduction). A number: that cut-off on any rig.
+        """
+        cut = self.modal_cutoff_hz
+        if cut is None:
+            return None
+        if cut != "auto":
+            return float(cut)
+        if len(system.meshes) < 2:
+            return None
+        f_mesh = mesh_frequency_hz(system, max(quantize_speed_rpm(speed_rpm), DT_RULE_SPEED_FLOOR_RPM))
+        return max(MODAL_CUTOFF_OUTPUT_FACTOR * self.output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh)
+
     def _activate(self, stepper: NewmarkStepper, st: SolverState, speed_rpm: float) -> None:
         self._stepper = stepper
+        stepper.modal_cutoff_hz = self._cutoff_hz(stepper.system, speed_rpm)
         self._omega_q = quantize_speed_rpm(speed_rpm) * 2.0 * np.pi / 60.0
         stepper.set_operating_point(self._omega_q, self.dt, st)
 
@@ -534,15 +576,15 @@ class Simulator:
             y = np.concatenate([y0, y])
         loss = back = 0
         if states.shape[1]:
-            loss = int(np.count_nonzero(states[:, 0] == 0))
-            back = int(np.count_nonzero(states[:, 0] < 0))
+            loss = int(np.count_nonzero((states == 0).any(axis=1)))  # any mesh
+            back = int(np.count_nonzero((states < 0).any(axis=1)))
         return y, loss, back
 
     def _update_dt_rule(self, states: np.ndarray) -> None:
         """Contact-loss setting at the window ends: on after a separation, off after none."""
         if self.contact_loss_rate_hz is None or not states.shape[1]:
             return
-        if not self._separated and states.shape[0] and states[:, 0].min() < 2:  # free flight, back side
+        if not self._separated and states.shape[0] and states.min() < 2:  # any mesh: free flight, back side
             self._separated = True  # or pinned at +-b*
         if self._raw % self._k or (self._seg_out0 + self._raw // self._k) % self._rule_window:
             return

@@ -35,6 +35,7 @@ def default_streams(
     displacement_dofs: tuple[str, ...] = ("x", "y", "z"),
     acceleration_nodes: tuple[int, ...] = (),
     has_mesh: bool = True,
+    n_meshes: int = 1,
 ) -> list[StreamSpec]:
     """The standard streams: DTE and mesh force, bearing forces, node displacements, accelerations.
 
@@ -44,10 +45,16 @@ def default_streams(
         Bearings are numbered 1..n_bearings as in the paper.
     displacement_nodes, acceleration_nodes : tuple of int
         1-based node numbers (Fig 5) to publish.
+    n_meshes : int
+        Meshes of the rig: with more than one the DTE stream carries ``mesh{k}_dte``, ``mesh{k}_force``
+        of every mesh (1-based in the order of ``meshes:``) instead of ``dte``, ``mesh_force``.
     """
     streams: list[StreamSpec] = []
     if has_mesh:
-        streams.append(StreamSpec("dte", ("dte", "mesh_force"), "gear_mesh"))
+        mesh_ch = ("dte", "mesh_force")
+        if n_meshes > 1:
+            mesh_ch = tuple(f"mesh{k}_{q}" for k in range(1, n_meshes + 1) for q in ("dte", "force"))
+        streams.append(StreamSpec("dte", mesh_ch, "gear_mesh"))
     forces = tuple(f"bearing{k}_f{d}" for k in range(1, n_bearings + 1) for d in "xyz")
     if forces:
         streams.append(StreamSpec("bearing_forces", forces, "gearbox_housing"))

@@ -91,6 +91,25 @@ def shaft_speed_ratios(cfg: RigConfig) -> np.ndarray:
     return np.array(ratios, dtype=float)
 
 
+def drivetrain_metadata(cfg: RigConfig) -> dict[str, str]:
+    """Per-shaft speed and per-mesh order information as text entries (recordings' ``custom_data``).
+
+    ``shaft_speed_ratios``: ``name=ratio`` per shaft (signed spin per unit input speed, so the shaft
+    speed in rpm is ``ratio * speed_rpm``); ``mesh_orders``: ``mesh{k}=order`` per mesh, the mesh
+    frequency in multiples of the input shaft frequency (``f_mesh = order * speed_rpm / 60``), 1-based
+    in the order of ``meshes:`` like the ``mesh{k}_*`` channels; ``meshes``: the wheels and teeth.
+    """
+    ratios = shaft_speed_ratios(cfg)
+    shafts = ", ".join(f"{sh.name}={r:.12g}" for sh, r in zip(cfg.shafts, ratios, strict=True))
+    orders, pairs = [], []
+    for k, m in enumerate(cfg.meshes, start=1):
+        gp, gg = cfg.gear(m.pinion), cfg.gear(m.gear)
+        order = gp.teeth * abs(float(ratios[cfg.shaft_of_node(gp.node0)]))
+        orders.append(f"mesh{k}={order:.12g}")
+        pairs.append(f"mesh{k}={gp.name}({gp.teeth})/{gg.name}({gg.teeth})")
+    return {"shaft_speed_ratios": shafts, "mesh_orders": ", ".join(orders), "meshes": ", ".join(pairs)}
+
+
 def shaft_elements(cfg: RigConfig) -> list[tuple[int, int, ShaftElement]]:
     """Every shaft element as (shaft index, global node0 of its node i, element)."""
     out = []

@@ -10,12 +10,13 @@ What is compiled: a :class:`~gear_rotor_sim.simulator.Simulator` of the node's d
 (``paper_sun2021``) with every channel of the rig (the dispatch is by argument types, not sizes, so
 this covers any channel selection), run briefly at steady speed, at a speed where the teeth
 separate (event location), and through a speed ramp and a temperature ramp (the output FIR and the
-rebuilds).
+rebuilds); then the multi-mesh kernel on the two-stage example (``two_stage_example``).
 
 ``--if-changed`` skips the run when the stamp written by the last warm-up still matches: numba's and
 numpy's versions, the Python version, the CPU numba compiles for and the modification time and
-size of every source file holding a kernel (the quantities numba itself checks before reusing a
-cached function). The stamp lives in the cache directory, so deleting the cache also re-runs it.
+size of every source file holding a kernel (:func:`kernel_sources`, found by their ``@njit``; the
+quantities numba itself checks before reusing a cached function). The stamp lives in the cache
+directory, so deleting the cache also re-runs it.
 """
 
 from __future__ import annotations
@@ -28,10 +29,21 @@ import sys
 import time
 from pathlib import Path
 
-#: Source files whose functions numba compiles and caches.
-KERNEL_SOURCES = ("solver/kernels.py", "solver/mesh_kernel.py", "solver/decimate.py")
 STAMP_NAME = "gear_rotor_sim_warmup.stamp"
 _PACKAGE = Path(os.path.abspath(os.path.dirname(__file__)))  # as imported, like numba's locators
+_MARKERS = ("@njit", "@jit", "numba.njit", "numba.jit")
+
+
+def kernel_sources() -> list[str]:
+    """Package-relative paths of the source files holding numba-compiled functions."""
+    out = []
+    for path in sorted(_PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts or path.name == "warmup.py":
+            continue
+        text = path.read_text(encoding="utf-8", errors="replace")
+        if any(m in text for m in _MARKERS):
+            out.append(path.relative_to(_PACKAGE).as_posix())
+    return out
 
 
 def cache_dir() -> Path:
@@ -63,7 +75,7 @@ def stamp() -> str:
     except Exception:  # pragma: no cover - llvmlite is a numba dependency
         cpu, features = platform.processor(), ""
     parts = [numba.__version__, numpy.__version__, sys.version, platform.machine(), str(cpu), str(features)]
-    for rel in KERNEL_SOURCES:
+    for rel in kernel_sources():
         st = (_PACKAGE / rel).stat()
         parts.append(f"{rel}:{st.st_mtime!r}:{st.st_size}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
@@ -95,6 +107,11 @@ def warm_up(verbose: bool = True) -> float:
     sim.advance(0.06)  # speed and temperature ramps (rebuilds, ramped mesh phase)
     fast = Simulator(cfg, speed_rpm=17000.0, temperature_c=25.0, output_rate_hz=20000.0, channels=channels)
     fast.advance(0.01)  # inside the main chaotic band: contact loss, located mesh events
+    from gear_rotor_sim.config import load_config
+
+    two = load_config("two_stage_example")
+    names = [name for name, _unit in Simulator.available_channels(two)]
+    Simulator(two, speed_rpm=3000.0, temperature_c=25.0, output_rate_hz=20000.0, channels=names).advance(0.01)
     wall = time.perf_counter() - t0
     d = cache_dir()
     d.mkdir(parents=True, exist_ok=True)

@@ -15,12 +15,19 @@ from gear_rotor_sim import warmup
 def tree(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A copy of the kernel sources; the stamp and cache directory follow it."""
     pkg = tmp_path / "gear_rotor_sim"
-    for rel in warmup.KERNEL_SOURCES:
+    for rel in warmup.kernel_sources():
         (pkg / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(Path(warmup.__file__).parent / rel, pkg / rel)
     monkeypatch.setattr(warmup, "_PACKAGE", pkg)
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     return pkg
+
+
+def test_kernel_sources_are_found() -> None:
+    assert {"solver/kernels.py", "solver/mesh_kernel.py", "solver/decimate.py"} <= set(
+        warmup.kernel_sources()
+    )
+    assert "warmup.py" not in warmup.kernel_sources()
 
 
 def test_stamp_follows_the_kernel_sources(tree: Path) -> None:
@@ -30,7 +37,7 @@ def test_stamp_follows_the_kernel_sources(tree: Path) -> None:
     (warmup.cache_dir() / warmup.STAMP_NAME).write_text(warmup.stamp() + "\n", encoding="ascii")
     assert warmup.is_current()
     # numba re-compiles when a source's modification time changes: so does the warm-up
-    src = tree / warmup.KERNEL_SOURCES[1]
+    src = tree / "solver" / "mesh_kernel.py"
     st = src.stat()
     os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
     assert not warmup.is_current()

@@ -950,13 +950,11 @@ def _stiffness_json(r: dict[str, Any]) -> dict[str, Any] | None:
 
 
 def printed_json(r: dict[str, Any]) -> dict[str, Any]:
-    """The object printed by ``--json``: :func:`summary_json`, plus ``config`` and
-    ``fig6_25c_main_chaotic_band_rpm`` (the finely resolved Fig 6a main band) for a non-default
-    configuration."""
+    """The object printed by ``--json``: :func:`summary_json`, plus ``fig6_25c_main_chaotic_band_rpm``
+    (the finely resolved Fig 6a main band, :func:`refine_main_band`) for a non-default configuration."""
     s = summary_json(r)
     fine = r.get("fig6_25c_main_band_fine")
     if fine is not None:
-        s["config"] = r["config"]
         s["fig6_25c_main_chaotic_band_rpm"] = fine["band_rpm"]
     return s
 

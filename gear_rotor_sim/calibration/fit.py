@@ -56,9 +56,11 @@ from gear_rotor_sim.calibration.residual import (
     time_and_spectrum_errors,
 )
 from gear_rotor_sim.faults import (
+    BASELINE_TYPES,
     BEARING_6206,
     BearingDefect,
     BearingGeometry,
+    BearingStiffnessDamping,
     Effect,
     GearEccentricity,
     MassUnbalance,
@@ -67,6 +69,7 @@ from gear_rotor_sim.faults import (
     TemperatureOffset,
     ToothDamage,
     ToothWear,
+    baseline_candidates,
     candidate_effects,
     effect_name,
 )
@@ -80,7 +83,7 @@ class FitSettings:
     bic_threshold: float = 10.0
     min_explained: float = 0.25
     max_effects: int = 3
-    refine_steps: int = 2
+    refine_steps: int = 3
     line_prominence: float = 4.0  # bearing defects: a characteristic envelope line >= 6 dB above the floor
 
 
@@ -114,7 +117,8 @@ class FoundEffect:
     explained_fraction: float
     error_before: float
     error_after: float
-    effect: Effect
+    effect: Effect | None
+    status: str = "found"  # "found", "baseline", "at_bound", "inconsistent"
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -123,6 +127,7 @@ class FoundEffect:
             "parameters": self.parameters,
             "uncertainty": self.uncertainty,
             "confidence": self.confidence,
+            "status": self.status,
             "delta_bic": self.delta_bic,
             "explained_fraction": self.explained_fraction,
             "error_before": self.error_before,
@@ -147,6 +152,15 @@ class CalibrationResult:
     comparison: Comparison
     notes: list[str] = field(default_factory=list)
     n_simulations: int = 0
+    baseline_updates: list[FoundEffect] = field(default_factory=list)
+    baseline_source: str = "measurement"
+    not_claimed: list[FoundEffect] = field(default_factory=list)
+    model_form: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def baseline_effects(self) -> list[Effect]:
+        """The fitted baseline parameter sets (to reuse on other records of the machine)."""
+        return [b.effect for b in self.baseline_updates if b.effect is not None]
 
     @property
     def error_before(self) -> float:
@@ -176,6 +190,13 @@ class CalibrationResult:
             "operating_point": dataclasses.asdict(self.measurement.operating_point),
             "main_metric": "family-balanced normalised RMS residual (1 = noise level)",
             "effects": [e.as_dict() for e in self.effects],
+            "baseline_updates": [b.as_dict() for b in self.baseline_updates],
+            "baseline": {
+                "source": self.baseline_source,
+                "updates": [b.as_dict() for b in self.baseline_updates],
+            },
+            "not_claimed": [e.as_dict() for e in self.not_claimed],
+            "model_form_floor": self.model_form,
             "error_before": self.error_before,
             "error_after": self.error_after,
             "error_before_by_family": {
@@ -235,6 +256,9 @@ class Calibrator:
         warmup_s: float = 0.15,
         steps_per_mesh: int = 32,
         log: Callable[[str], None] | None = None,
+        baseline: Sequence[Effect] | None = None,
+        baseline_source: str | None = None,
+        carrier_tolerance: float | None = None,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -265,6 +289,13 @@ class Calibrator:
         env_max = self._envelope_max(cfg, bearing_geometry)
         self.cmp = Comparison(measurement, self.runner, self.settings, env_max)
         self.notes: list[str] = []
+        #: baseline parameter sets in force (fixed when given, else fitted on this record first)
+        self.baseline: list[Effect] = list(baseline or [])
+        self.fit_baseline = baseline is None
+        self.baseline_source = baseline_source or ("measurement" if baseline is None else "given")
+        self.fixed_carrier_tolerance = carrier_tolerance
+        #: effects found before the baseline stage (temperature from the static content)
+        self.pre_effects: list[Effect] = []
 
     # ------------------------------------------------------------------------------- helpers
     def _envelope_max(self, cfg: Any, geom: BearingGeometry) -> float:
@@ -282,7 +313,83 @@ class Calibrator:
         return self.cmp.score(feats).balanced_chi2
 
     def _raw(self, effects: Sequence[Effect]) -> np.ndarray:
-        return self.runner.force_signals(tuple(effects))
+        """Raw model channels of the baseline-updated machine (at the screened temperature) with
+        ``effects``."""
+        return self.runner.force_signals((*self.baseline, *self.pre_effects, *effects))
+
+    def _static_screen(self, score: Score) -> FoundEffect | None:
+        """Temperature from the static content, before the baseline is updated.
+
+        The channel means (bearing forces, DTE) hardly depend on the uncertain stiffness and damping
+        scales but the axial bearing load grows with the temperature (``k_s a dT L / (1 + 2 k_s/k_b)``).
+        When they disagree with the declared temperature (static chi^2 > 9 per mean + 25) the offset
+        is fitted to the means alone (bounded Brent on full simulations) and accepted if it brings
+        every mean within 3 sigma; the dynamic features must then confirm it (BIC, below). Fitting
+        the baseline first would let the stiffness and damping scales absorb the temperature's
+        dynamic signature.
+        """
+        if "static" not in score.chi2 or not any(isinstance(e, TemperatureOffset) for e in self.candidates):
+            return None
+        n_s = score.n["static"]
+        if score.chi2["static"] <= 9.0 * n_s + 25.0:
+            return None
+        e = TemperatureOffset()
+        lo, hi = self._bounds(e)
+        if hi - lo < 1.0:
+            return None
+        memo: dict[float, Score] = {}
+
+        def static_chi2(x: float) -> float:
+            x = round(float(np.clip(x, lo, hi)), 3)
+            if x not in memo:
+                memo[x] = self.cmp.score(self._features(self._raw((e.with_parameters(offset_c=x),))))
+            return memo[x].chi2["static"]
+
+        grid = np.linspace(lo, hi, 7)
+        vals = [static_chi2(x) for x in grid]
+        i = int(np.argmin(vals))
+        a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+        res = minimize_scalar(
+            static_chi2, bounds=(a, b), method="bounded", options={"xatol": 0.5, "maxiter": 10}
+        )
+        x = round(float(res.x), 3) if res.fun < vals[i] else round(float(grid[i]), 3)
+        sc = (
+            memo[x]
+            if x in memo
+            else self.cmp.score(self._features(self._raw((e.with_parameters(offset_c=x),))))
+        )
+        if sc.static_r.size == 0 or float(np.max(np.abs(sc.static_r))) > 3.0:
+            self.notes.append(
+                f"static screening: no temperature offset brings the channel means within 3 sigma (best "
+                f"{x:.3g} degC, largest residual {float(np.max(np.abs(sc.static_r))):.3g} sigma)"
+            )
+            return None
+        N = score.n_total
+        dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(N)
+        expl = (score.balanced_chi2 - sc.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+        if dbic <= self.fit.bic_threshold or expl < self.fit.min_explained:
+            return None
+        eff = e.with_parameters(offset_c=x)
+        if self._at_bound(eff):
+            return None
+        # uncertainty from the static curvature
+        h = max(0.01 * (hi - lo), 0.5)
+        sig = self._curvature_sigma(static_chi2, x, static_chi2(x), h, 1, lo)
+        self.log(
+            f"static screening: temperature_offset {x:.4g} degC: error {score.error:.3g} -> {sc.error:.3g}"
+        )
+        return FoundEffect(
+            effect_name(eff),
+            eff.label,
+            eff.parameters(),
+            {"offset_c": sig},
+            float(_logistic(dbic / 2)),
+            float(dbic),
+            float(expl),
+            score.error,
+            sc.error,
+            eff,
+        )
 
     def _signature(self, effect: Effect) -> ModelFeatures:
         """Features of the response change of ``effect`` alone relative to the healthy model."""
@@ -331,10 +438,11 @@ class Calibrator:
             rhs = np.zeros(2)
             for ci in range(self.cmp.nc):
                 for s in range(len(self.cmp.shafts)):
-                    model = g[ci] * (cur.order[ci][s] + c[0] * f0.order[ci][s] + c[1] * f1.order[ci][s])
+                    gc = self.cmp.order_gain(g, ci, s)
+                    model = gc * (cur.order[ci][s] + c[0] * f0.order[ci][s] + c[1] * f1.order[ci][s])
                     w = 2.0 / self.cmp.order_sigma2(ci, s, model)
-                    r = self.cmp.d_order[ci][s] - g[ci] * cur.order[ci][s]
-                    cols = [g[ci] * f0.order[ci][s], g[ci] * f1.order[ci][s]]
+                    r = self.cmp.d_order[ci][s] - gc * cur.order[ci][s]
+                    cols = [gc * f0.order[ci][s], gc * f1.order[ci][s]]
                     for i in range(2):
                         rhs[i] += float(np.sum(w * np.real(np.conj(cols[i]) * r)))
                         for j in range(2):
@@ -440,12 +548,17 @@ class Calibrator:
         sig = self._curvature_sigma(lambda x: self._chi2(model(x)), p, val, (hi - lo) * 0.01, 1, lo)
         return CandidateFit(make(p), self.cmp.score(model(p)), None, 1, {name: sig})
 
-    def _fit_stiffness_damping(self, e: MeshStiffnessDamping, cur: ModelFeatures) -> CandidateFit | None:
-        fit = self._fit_grid_scalar(e, "stiffness_scale", [0.45, 0.7, 1.4], 1.0, cur, (0.3, 2.0))
+    def _fit_stiffness_damping(
+        self, e: MeshStiffnessDamping | BearingStiffnessDamping, cur: ModelFeatures
+    ) -> CandidateFit | None:
+        """Stiffness scale on a grid, then the damping scale at the fitted stiffness (baseline sets)."""
+        k_lo, k_hi = e.specs[0].lower, e.specs[0].upper
+        grid = [0.45, 0.7, 1.4] if isinstance(e, MeshStiffnessDamping) else [0.5, 0.75, 1.5, 2.2]
+        fit = self._fit_grid_scalar(e, "stiffness_scale", grid, 1.0, cur, (k_lo, k_hi))
         if fit is None:
             return None
         ks = fit.effect.parameters()["stiffness_scale"]
-        base = MeshStiffnessDamping(stiffness_scale=round(ks, 3))
+        base = dataclasses.replace(e, stiffness_scale=round(ks, 3), damping_scale=1.0)
         fit2 = self._fit_grid_scalar(
             base, "damping_scale", [0.6, 1.7], 1.0, self._grid_point(base, cur), (0.3, 3.0)
         )
@@ -459,14 +572,24 @@ class Calibrator:
         """Current model plus the signature of ``e`` at its present parameters (one cached run)."""
         return cur.combo(self._signature(e), 1.0)
 
-    def _fit_tooth(self, cur: ModelFeatures) -> CandidateFit | None:
+    def _fit_tooth(self, e: ToothDamage, cur: ModelFeatures) -> CandidateFit | None:
+        """Depth and tooth of a damaged tooth on ``e.wheel``: the tooth-1 signature shifted by whole
+        mesh periods gives every tooth of that wheel (its shaft's order comb and the sidebands at
+        +-k f_shaft around the mesh orders tell the wheel: each wheel is a separate candidate)."""
         cfg = self.runner.cfg
-        z = cfg.meshes[0].pinion_teeth
-        fm = z * self.m.operating_point.speed_rpm / 60.0
+        mesh = cfg.meshes[e.mesh - 1]
+        z = mesh.pinion_teeth if e.wheel == "pinion" else mesh.gear_teeth
+        fm = mesh.pinion_teeth * self.m.operating_point.speed_rpm / 60.0
+        if e.mesh != 1:
+            from gear_rotor_sim.system import shaft_speed_ratios
+
+            ratios = np.abs(shaft_speed_ratios(cfg))
+            pin_shaft = cfg.shaft_of_node(cfg.gear(mesh.pinion).node0)
+            fm *= float(ratios[pin_shaft])
         depths = [0.2, 0.45, 0.8]
         sigs = {0.0: cur.scaled(0.0)}
         for d in depths:
-            sigs[d] = self._signature(ToothDamage(tooth=1, depth=d))
+            sigs[d] = self._signature(dataclasses.replace(e, tooth=1, depth=d))
         shifted: dict[tuple[float, int], ModelFeatures] = {}
 
         def sig(d: float, i: int) -> ModelFeatures:
@@ -507,7 +630,7 @@ class Calibrator:
             (float(res.x), float(res.fun)) if res.fun < vals[k] else (float(grid[k]), float(vals[k]))
         )
         sd = self._curvature_sigma(obj, d_best, val, 0.02, 2, 0.0)
-        eff = ToothDamage(tooth=i_best + 1, depth=d_best)
+        eff = dataclasses.replace(e, tooth=i_best + 1, depth=d_best)
         return CandidateFit(
             eff, self.cmp.score(cur.combo(sig(d_best, i_best), 1.0)), None, 2, {"depth": sd, "tooth": 0.0}
         )
@@ -531,10 +654,10 @@ class Calibrator:
                 return None
             grid = [float(g) for g in np.linspace(lo, hi, 5) if abs(g) > 1e-9]
             return self._fit_grid_scalar(e, "offset_c", grid, 0.0, cur, (lo, hi))
-        if isinstance(e, MeshStiffnessDamping):
+        if isinstance(e, MeshStiffnessDamping | BearingStiffnessDamping):
             return self._fit_stiffness_damping(e, cur)
         if isinstance(e, ToothDamage):
-            return self._fit_tooth(cur)
+            return self._fit_tooth(e, cur)
         return None
 
     def _signature_present(self, fit: CandidateFit, cur: Score) -> bool:
@@ -642,31 +765,52 @@ class Calibrator:
             pts.append((x, self.cmp.score(self._features(raw)).balanced_chi2, raw))
 
         run(x0)
-        if self.fit.refine_steps > 0:
+        if isinstance(e, TemperatureOffset) and self.fit.refine_steps > 0:
+            # the grid interpolant is coarse in temperature: bounded Brent on full simulations
+            def obj(x: float) -> float:
+                run(x)
+                return min(p[1] for p in pts if abs(p[0] - float(np.clip(x, lower, upper))) < 1e-9)
+
+            a, b = max(lower, x0 - 0.15 * span), min(upper, x0 + 0.15 * span)
+            minimize_scalar(obj, bounds=(a, b), method="bounded", options={"xatol": 0.5, "maxiter": 8})
+        elif self.fit.refine_steps > 0:
             run(x0 + h)
             x1 = pts[-1][0]
             if len(pts) == 2 and pts[1][1] > pts[0][1]:
                 run(x0 - h)
             else:
                 run(x1 + h)
-            xs = np.array([p[0] for p in pts])
-            vs = np.array([p[1] for p in pts])
-            if len(pts) == 3 and np.ptp(xs) > 0:
-                c2 = np.polyfit(xs - x0, vs, 2)
-                if c2[0] > 0:
-                    xq = x0 - c2[1] / (2 * c2[0])
-                    if abs(xq - x0) <= 4 * h:
-                        run(x0 + (xq - x0))
+            # successive parabolas through the three best runs (at most ``refine_steps`` more runs)
+            for _ in range(self.fit.refine_steps):
+                best3 = sorted(pts, key=lambda t: t[1])[:3]
+                xs = np.array([p[0] for p in best3])
+                vs = np.array([p[1] for p in best3])
+                if len(best3) < 3 or np.ptp(xs) <= 0:
+                    break
+                xb0 = float(xs[0])
+                c2 = np.polyfit(xs - xb0, vs, 2)
+                if c2[0] <= 0:
+                    # no curvature: step downhill from the best run
+                    xq = xb0 + (2 * h if c2[1] < 0 else -2 * h)
+                else:
+                    xq = xb0 + float(np.clip(-c2[1] / (2 * c2[0]), -4 * h, 4 * h))
+                n_before = len(pts)
+                run(xq)
+                if len(pts) == n_before or abs(xq - xb0) < 1e-3 * max(h, 1e-12):
+                    break
         xb, _, rb = min(pts, key=lambda t: t[1])
         eff = e.with_parameters(**{main.name: xb})
         return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(self._features(rb)))
 
     # ------------------------------------------------------------------------------------- run
-    def run(self) -> CalibrationResult:
+    def _setup(self) -> np.ndarray:
+        """Healthy nominal model run; envelope bands and housing-sensor frequencies. Model outputs."""
+        self._sig_cache: dict[str, ModelFeatures] = {}
+        self._sig_checked: dict[tuple, bool] = {}
         self.base_raw = self._raw(())
         base_out = self.runner.outputs(self.base_raw)
+        self.cmp.set_baseline(base_out)
         if self.runner.sensors is not None and any(housing_source(c) for c in self.runner.channels):
-            self.cmp.set_baseline(base_out)
             for c, band in zip(self.runner.channels, self.cmp.bands, strict=False):
                 if housing_source(c):
                     old = self.runner.sensors.get(c, HousingSensor())
@@ -677,25 +821,200 @@ class Calibrator:
                         f"{band[0]:.0f}-{band[1]:.0f} Hz)"
                     )
             base_out = self.runner.outputs(self.base_raw)
-        else:
-            self.cmp.set_baseline(base_out)
+        return base_out
+
+    def _fit_baseline_stage(self, score: Score) -> list[FoundEffect]:
+        """Fit the baseline parameter sets (mesh, bearings) to this record before any diagnosis.
+
+        Each set is kept if it lowers chi^2 beyond the BIC penalty (no explained-fraction rule: the
+        baseline is updated, not diagnosed). The updated machine becomes the reference of every
+        effect signature.
+        """
+        updates: list[FoundEffect] = []
+        if not self.fit_baseline:
+            return updates
+        N = score.n_total
+        for b in baseline_candidates(self.runner.cfg):
+            if score.error <= self.fit.stop_error:
+                break
+            cur = self._features(self.base_raw)
+            try:
+                f = self._fit_stiffness_damping(b, cur)
+                if f is None:
+                    continue
+                if score.balanced_chi2 - f.score.balanced_chi2 - f.k * math.log(N) <= self.fit.bic_threshold:
+                    continue
+                ver = self._refine(f, [])
+            except (ValueError, RuntimeError) as exc:
+                self.notes.append(f"baseline {b.label}: not fitted ({exc})")
+                continue
+            dbic = score.balanced_chi2 - ver.score.balanced_chi2 - f.k * math.log(N)
+            if dbic <= self.fit.bic_threshold:
+                continue
+            updates.append(
+                FoundEffect(
+                    ver.name,
+                    ver.effect.label,
+                    ver.effect.parameters(),
+                    ver.uncertainty,
+                    _logistic(dbic / 2),
+                    float(dbic),
+                    float(
+                        (score.balanced_chi2 - ver.score.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+                    ),
+                    score.error,
+                    ver.score.error,
+                    ver.effect,
+                    "baseline",
+                )
+            )
+            self.log(f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}")
+            self.baseline.append(ver.effect)
+            self._sig_cache.clear()
+            self._sig_checked.clear()
+            self.base_raw = self._raw(())
+            self._refit_transfer(self._features(self.base_raw))
+            score = self.cmp.score(self._features(self.base_raw))
+        return updates
+
+    def _carrier_floor(self, feats: ModelFeatures, score: Score) -> float:
+        """Model-form tolerance of the mesh carriers: their median relative misfit, in [tol, 0.5]."""
+        mis = self.cmp.carrier_mismatch(feats, score) if "order" in self.cmp.families else np.nan
+        if not np.isfinite(mis):
+            return self.settings.tolerance
+        return float(np.clip(mis, self.settings.tolerance, 0.5))
+
+    def _sensor_entry(self, score: Score) -> FoundEffect:
+        params: dict[str, float] = {}
+        for c, g, b in zip(self.cmp.names, score.gains, score.slopes, strict=False):
+            params[f"gain_{c}"] = float(g)
+            params[f"transfer_slope_{c}"] = float(b)
+        return FoundEffect(
+            "sensor_transfer",
+            "sensor_transfer",
+            params,
+            {},
+            1.0,
+            float("nan"),
+            float("nan"),
+            score.error,
+            score.error,
+            None,
+            "baseline",
+        )
+
+    def _at_bound(self, e: Effect) -> list[str]:
+        """Fitted parameters at (within 1 % of the range of) a bound that limits them."""
+        out = []
+        for i, spec in enumerate(e.specs):
+            if spec.role not in ("amplitude", "scalar"):
+                continue
+            lo, hi = self._bounds(e) if i == 0 else (spec.lower, spec.upper)
+            v = float(getattr(e, spec.name))
+            tol = 0.01 * (hi - lo)
+            if v >= hi - tol or (spec.role == "scalar" and v <= lo + tol):
+                out.append(spec.name)
+        return out
+
+    def _consistency(self, ver: CandidateFit, cur: Score) -> str:
+        """Why an otherwise accepted candidate is physically inconsistent ('' if consistent).
+
+        The static family (channel means) must not get worse beyond its own uncertainty: a
+        temperature offset must agree with the mean axial bearing force and DTE where observed.
+        """
+        if "static" not in ver.score.chi2 or "static" not in cur.chi2:
+            if isinstance(ver.effect, TemperatureOffset):
+                self.notes.append(
+                    "temperature_offset: no static channel (bearing force, DTE) observed; judged on the "
+                    "dynamic features only"
+                )
+            return ""
+        before, after = cur.chi2["static"], ver.score.chi2["static"]
+        n_static = max(ver.score.n["static"], 1)
+        if after > before + 9.0 * n_static:
+            worst = max(
+                ver.score.per_channel.get("static", {}).items(), key=lambda kv: kv[1], default=("", 0)
+            )
+            return (
+                f"it contradicts the static content (channel means): chi2 {before:.3g} -> {after:.3g}, "
+                f"worst {worst[0]} at {worst[1]:.3g} sigma"
+            )
+        if isinstance(ver.effect, TemperatureOffset) and ver.score.static_r.size:
+            r = np.abs(ver.score.static_r)
+            if float(np.max(r)) > 5.0:
+                return (
+                    f"the static channel means disagree with the fitted temperature (largest residual "
+                    f"{float(np.max(r)):.3g} sigma)"
+                )
+        return ""
+
+    def _refit_transfer(self, feats: ModelFeatures) -> None:
+        """Fit the transfer slopes on the current healthy/baseline model, then hold them."""
+        self.cmp.fix_transfer(None)
+        self.cmp.fix_transfer(self.cmp.score(feats).slopes)
+
+    def run(self) -> CalibrationResult:
+        base_out = self._setup()
+        self._refit_transfer(self._features(self.base_raw))
+        score0 = self.cmp.score(self._features(self.base_raw))
+        self.n_total = score0.n_total
+        self.log(f"nominal model: error {score0.error:.3g}")
+        screened = self._static_screen(score0)
+        score_b = score0
+        if screened is not None:
+            self.pre_effects.append(screened.effect)
+            self._sig_cache.clear()
+            self._sig_checked.clear()
+            self.base_raw = self._raw(())
+            self._refit_transfer(self._features(self.base_raw))
+            score_b = self.cmp.score(self._features(self.base_raw))
+        # a reference run (no effects wanted) fits the baseline sets alone; otherwise they compete
+        # with the effects below, so that a fault is not absorbed into the baseline
+        baseline_only = self.fit.max_effects == 0 and self.fit_baseline
+        baseline_updates = self._fit_baseline_stage(score_b) if baseline_only else []
+        if not self.fit_baseline:
+            baseline_updates = [
+                FoundEffect(
+                    effect_name(e), e.label, e.parameters(), {}, 1.0, *(4 * [float("nan")]), e, "baseline"
+                )
+                for e in self.baseline
+            ]
         cur_raw = self.base_raw
         cur_feat = self._features(cur_raw)
-        self._sig_cache: dict[str, ModelFeatures] = {}
-        self._sig_checked: dict[tuple, bool] = {}
-        score0 = self.cmp.score(cur_feat)
-        self.n_total = score0.n_total
-        cur_score = score0
-        accepted: list[Effect] = []
-        found: list[FoundEffect] = []
+        cur_score = self.cmp.score(cur_feat)
+        # model-form floor of the mesh carriers: from the reference record, else re-estimated after
+        # each baseline update (never below the settings' tolerance, at most 50 %)
+        ctol = self.settings.tolerance
+        if self.fixed_carrier_tolerance is not None:
+            ctol = self.fixed_carrier_tolerance
+        elif baseline_only:
+            ctol = self._carrier_floor(cur_feat, cur_score)
+        self.cmp.set_carrier_tolerance(ctol)
+        cur_score = self.cmp.score(cur_feat)
+
+        if "order" in self.cmp.families and self.settings.fit_gain:
+            baseline_updates.append(self._sensor_entry(cur_score))
+        model_form: dict[str, Any] = {
+            "carrier_tolerance": float(ctol),
+            "error_after_baseline": float(cur_score.error),
+            "source": "reference record" if self.fixed_carrier_tolerance is not None else "this record",
+        }
+        self.log(f"baseline-updated model: error {cur_score.error:.3g} (carrier tolerance {ctol:.3g})")
+        accepted: list[Effect] = list(self.pre_effects)
+        found: list[FoundEffect] = [screened] if screened is not None else []
+        if screened is not None:
+            screened.error_after = float(cur_score.error)
+        not_claimed: list[FoundEffect] = []
+        rejected_labels: set[str] = set()
         rounds: list[list[dict[str, Any]]] = []
-        N = score0.n_total
-        self.log(f"healthy model: error {score0.error:.3g}")
+        N = cur_score.n_total
         conclusion = ""
-        while len(accepted) < self.fit.max_effects:
+        n_rounds = 0
+        while len(accepted) < self.fit.max_effects and n_rounds < self.fit.max_effects + 2:
+            n_rounds += 1
             if cur_score.error <= self.fit.stop_error:
                 conclusion = (
-                    "the healthy model already fits to within the noise level: no effect claimed"
+                    "the (baseline-updated) healthy model fits to within the noise level: no effect claimed"
                     if not accepted
                     else "the remaining residual is at the noise level"
                 )
@@ -703,8 +1022,11 @@ class Calibrator:
             self._cur_feat = cur_feat
             fits: list[CandidateFit] = []
             table: list[dict[str, Any]] = []
-            used = {a_.label for a_ in accepted}
-            for e in self.candidates:
+            used = {a_.label for a_ in (*accepted, *self.baseline)} | rejected_labels
+            pool = list(self.candidates)
+            if self.fit_baseline:
+                pool += baseline_candidates(self.runner.cfg)
+            for e in pool:
                 if e.label in used or not e.applicable(self.runner.cfg):
                     continue
                 try:
@@ -744,7 +1066,7 @@ class Calibrator:
             fits.sort(key=lambda f: -f.delta_bic)
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
             chosen = None
-            for _idx, f in enumerate(fits[:3]):
+            for f in fits[:3]:
                 if f.delta_bic <= self.fit.bic_threshold or f.explained < self.fit.min_explained:
                     break
                 if f not in admissible:
@@ -754,7 +1076,7 @@ class Calibrator:
                     )
                     continue
                 try:
-                    ver = self._refine(f, accepted)
+                    ver = self._refine(f, accepted[len(self.pre_effects) :])
                 except (ValueError, RuntimeError) as exc:
                     self.notes.append(f"{f.effect.label}: refinement failed ({exc}); not claimed")
                     continue
@@ -765,6 +1087,40 @@ class Calibrator:
                 others = [g.delta_bic for g in admissible if g is not f]
                 runner_up = max(others) if others else -np.inf
                 p_sep = _logistic((dbic - runner_up) / 2) if np.isfinite(runner_up) else 1.0
+                verdict = ""
+                status = "found"
+                if isinstance(ver.effect, BASELINE_TYPES):
+                    if dbic > self.fit.bic_threshold:
+                        ver.delta_bic, ver.explained = dbic, expl
+                        chosen = (ver, runner_up)
+                        break
+                    continue
+                bound = self._at_bound(ver.effect)
+                if bound:
+                    verdict, status = f"{', '.join(bound)} at its bound", "at_bound"
+                else:
+                    why = self._consistency(ver, cur_score)
+                    if why:
+                        verdict, status = why, "inconsistent"
+                if verdict and dbic > self.fit.bic_threshold:
+                    not_claimed.append(
+                        FoundEffect(
+                            ver.name,
+                            ver.effect.label,
+                            ver.effect.parameters(),
+                            ver.uncertainty,
+                            float(0.5 * _logistic(dbic / 2) * p_sep),
+                            float(dbic),
+                            float(expl),
+                            cur_score.error,
+                            ver.score.error,
+                            ver.effect,
+                            status,
+                        )
+                    )
+                    rejected_labels.add(ver.effect.label)
+                    self.notes.append(f"{ver.effect.label}: not claimed ({verdict})")
+                    continue
                 if dbic > self.fit.bic_threshold and expl >= self.fit.min_explained and p_sep >= 0.5:
                     ver.delta_bic, ver.explained = dbic, expl
                     chosen = (ver, runner_up)
@@ -781,7 +1137,7 @@ class Calibrator:
             if chosen is None:
                 conclusion = (
                     "no effect claimed: no candidate explains the residual beyond noise and the parsimony "
-                    "penalty with its own signature"
+                    "penalty with its own signature and consistently with the static content"
                     if not accepted
                     else "no further effect explains the remaining residual"
                 )
@@ -793,6 +1149,39 @@ class Calibrator:
             ver, runner_up = chosen
             p_model = _logistic(ver.delta_bic / 2)
             p_sep = _logistic((ver.delta_bic - runner_up) / 2) if np.isfinite(runner_up) else 1.0
+            if isinstance(ver.effect, BASELINE_TYPES):
+                # a baseline update: the machine's nominal values change, nothing is diagnosed
+                baseline_updates.append(
+                    FoundEffect(
+                        ver.name,
+                        ver.effect.label,
+                        ver.effect.parameters(),
+                        ver.uncertainty,
+                        float(p_model),
+                        float(ver.delta_bic),
+                        float(ver.explained),
+                        cur_score.error,
+                        ver.score.error,
+                        ver.effect,
+                        "baseline",
+                    )
+                )
+                self.log(
+                    f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}"
+                )
+                self.baseline.append(ver.effect)
+                self._sig_cache.clear()
+                self._sig_checked.clear()
+                self.base_raw = self._raw(())
+                cur_raw = ver.raw
+                cur_feat = self._features(cur_raw)
+                self._refit_transfer(cur_feat)
+                if self.fixed_carrier_tolerance is None:
+                    ctol = self._carrier_floor(cur_feat, self.cmp.score(cur_feat))
+                    self.cmp.set_carrier_tolerance(ctol)
+                cur_score = self.cmp.score(cur_feat)
+                N = cur_score.n_total
+                continue
             found.append(
                 FoundEffect(
                     ver.name,
@@ -818,6 +1207,11 @@ class Calibrator:
         else:
             conclusion = f"stopped after {self.fit.max_effects} effects"
         model_after = self.runner.outputs(cur_raw)
+        model_form["error_after_effects"] = float(cur_score.error)
+        model_form["carrier_tolerance"] = float(getattr(self.cmp, "carrier_tolerance", ctol))
+        if "order" in self.cmp.families and self.settings.fit_gain:
+            baseline_updates = [b for b in baseline_updates if b.name != "sensor_transfer"]
+            baseline_updates.append(self._sensor_entry(cur_score))
         return CalibrationResult(
             self.m,
             found,
@@ -832,6 +1226,10 @@ class Calibrator:
             self.cmp,
             self.notes,
             self.runner.n_runs,
+            baseline_updates,
+            self.baseline_source,
+            not_claimed,
+            model_form,
         )
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:

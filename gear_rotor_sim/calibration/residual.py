@@ -41,7 +41,10 @@ from scipy import signal as _sig
 from gear_rotor_sim.analysis.signals import amplitude_spectrum, analytic_band, resample_to_angle
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
 
-FAMILIES = ("order", "envelope")
+FAMILIES = ("order", "envelope", "static")
+
+#: Quantities whose mean (order 0) is a physical feature; accelerometers are AC-coupled.
+STATIC_QUANTITIES = ("dynamic_transmission_error", "mesh_force", "bearing_force", "displacement")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -255,6 +258,7 @@ class ShaftOrders:
     name: str
     ratio: float
     orders: np.ndarray  # int orders
+    teeth: int = 0  # teeth of the shaft's (first) gear: orders k * teeth are the mesh carriers
 
 
 def shaft_orders(
@@ -274,6 +278,7 @@ def shaft_orders(
         f = ratios[s] * speed_rpm / 60.0
         kmax = int(0.42 * sample_rate_hz / f)
         orders = set(range(1, low_orders + 1))
+        teeth = 0
         for m in cfg.meshes:
             z = (
                 m.pinion_teeth
@@ -282,11 +287,12 @@ def shaft_orders(
             )
             if z is None:
                 continue
+            teeth = teeth or int(z)
             for h in range(1, mesh_harmonics + 1):
                 orders.update(range(h * z - sidebands, h * z + sidebands + 1))
         arr = np.array(sorted(o for o in orders if 1 <= o <= kmax), dtype=int)
         if arr.size:
-            out.append(ShaftOrders(shaft.name, float(ratios[s]), arr))
+            out.append(ShaftOrders(shaft.name, float(ratios[s]), arr, teeth))
     return out
 
 
@@ -397,6 +403,7 @@ class ModelFeatures:
 
     order: list[list[np.ndarray]]
     analytic: list[np.ndarray]
+    static: np.ndarray = field(default_factory=lambda: np.zeros(0))  # channel means (order 0)
 
     def combo(self, other: ModelFeatures, w: float) -> ModelFeatures:
         """``self + w * other``."""
@@ -406,10 +413,13 @@ class ModelFeatures:
                 for xs, ys in zip(self.order, other.order, strict=True)
             ],
             [x + w * y for x, y in zip(self.analytic, other.analytic, strict=True)],
+            self.static + w * other.static,
         )
 
     def scaled(self, w: float) -> ModelFeatures:
-        return ModelFeatures([[w * x for x in xs] for xs in self.order], [w * x for x in self.analytic])
+        return ModelFeatures(
+            [[w * x for x in xs] for xs in self.order], [w * x for x in self.analytic], w * self.static
+        )
 
 
 @dataclass
@@ -418,11 +428,13 @@ class Score:
 
     chi2: dict[str, float]
     n: dict[str, int]
-    gains: np.ndarray
+    gains: np.ndarray  # per-channel sensor gain at the mesh frequency
     per_channel: dict[str, dict[str, float]]  # family -> channel -> normalised RMS residual
     relative: dict[str, dict[str, float]]  # family -> channel -> relative error
     tau: float = 0.0  # fitted time shift, s
     envelope_r2: list[np.ndarray] = field(default_factory=list)  # per channel (r/sigma)^2 per envelope bin
+    slopes: np.ndarray = field(default_factory=lambda: np.zeros(0))  # transfer slope per channel
+    static_r: np.ndarray = field(default_factory=lambda: np.zeros(0))  # normalised static residuals
 
     @property
     def error(self) -> float:
@@ -432,10 +444,16 @@ class Score:
 
     @property
     def balanced_chi2(self) -> float:
-        """chi^2 with the families weighted to equal total counts (for BIC comparisons)."""
-        fams = [f for f in self.chi2 if self.n[f] > 0]
+        """chi^2 with the spectral families weighted to equal total counts (for BIC comparisons).
+
+        The ``static`` family (a handful of channel means) enters with weight 1 per feature: it
+        decides only when its residual is large against its own uncertainty (e.g. an axial bearing
+        load that reveals a temperature), never by the count weighting.
+        """
+        fams = [f for f in self.chi2 if self.n[f] > 0 and f != "static"]
         ntot = sum(self.n[f] for f in fams)
-        return float(sum(self.chi2[f] * ntot / (len(fams) * self.n[f]) for f in fams))
+        out = float(sum(self.chi2[f] * ntot / (len(fams) * self.n[f]) for f in fams)) if fams else 0.0
+        return out + float(self.chi2.get("static", 0.0))
 
     @property
     def n_total(self) -> int:
@@ -448,6 +466,9 @@ class ResidualSettings:
 
     families: tuple[str, ...] = FAMILIES
     tolerance: float = 0.05
+    static_tolerance: float = 0.1
+    transfer_slope_bounds: tuple[float, float] = (-0.3, 0.3)
+    fit_transfer: bool = True
     gain_bounds: tuple[float, float] = (0.8, 1.25)
     fit_gain: bool = True
     low_orders: int = 6
@@ -514,9 +535,88 @@ class Comparison:
                     vs.append(np.maximum(var, med))
                 self.d_order.append(cs)
                 self.v_order.append(vs)
+            self._guard_zero_variance(measurement)
+        self._xf = [
+            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), -1.0, 1.0)
+            if self.mesh_hz
+            else np.zeros(sh.orders.size)
+            for sh in self.shafts
+        ]
+        self._static_features(measurement)
         self.d_env: list[np.ndarray] = []
         self.env_f: np.ndarray = np.zeros(0)
         self.env_k = 1.0
+
+    def _units(self, measurement: Measurement) -> list[str]:
+        chans = getattr(measurement, "channels", None)
+        if chans and len(chans) == self.nc:
+            return [c.si_unit for c in chans]
+        return ["?"] * self.nc
+
+    def _guard_zero_variance(self, measurement: Measurement) -> None:
+        """A channel without dynamic content (e.g. the axial bearing forces of a spur gearbox at the
+        reference temperature: exactly zero) has zero noise variance: 0/0 in the normalisation. Its
+        variance is floored by the smallest noise level of the channels with the same unit; without
+        such a channel it is left out of the order family. Both are reported in ``issues``."""
+        units = self._units(measurement)
+        med = [float(np.median(np.concatenate(v))) if v else 0.0 for v in self.v_order]
+        for c in range(self.nc):
+            if med[c] > 0 and np.isfinite(med[c]):
+                continue
+            peers = [med[k] for k in range(self.nc) if k != c and units[k] == units[c] and med[k] > 0]
+            if peers:
+                floor = float(min(peers))
+                self.v_order[c] = [np.maximum(v, floor) for v in self.v_order[c]]
+                how = f"floored by the noise level of the other {units[c]} channels"
+            else:
+                self.v_order[c] = [np.full(v.shape, np.inf) for v in self.v_order[c]]
+                how = "left out of the order features (no channel of the same unit to take a floor from)"
+            measurement.issues.append(
+                f"{self.names[c]}: no dynamic content (zero variance between revolutions); its "
+                f"uncertainty is {how}"
+            )
+
+    def _static_features(self, measurement: Measurement) -> None:
+        """Channel means (order 0) and their noise variance (scatter of per-revolution means)."""
+        chans = getattr(measurement, "channels", None)
+        qty = [c.quantity for c in chans] if chans and len(chans) == self.nc else [""] * self.nc
+        self.static_mask = np.array(
+            [q in STATIC_QUANTITIES and not housing_source(n) for q, n in zip(qty, self.names, strict=True)],
+            dtype=bool,
+        )
+        if "static" not in self.s.families or not self.static_mask.any():
+            self.families = tuple(f for f in self.families if f != "static")
+            self.d_static = np.zeros(self.nc)
+            self.v_static = np.full(self.nc, np.inf)
+            return
+        if "static" not in self.families:
+            self.families = (*self.families, "static")
+        self.d_static = self.y.mean(axis=0)
+        n_per = max(round(self.fs / self.speed_hz), 1) if self.speed_hz else int(0.1 * self.fs)
+        n_blk = max(self.y.shape[0] // n_per, 1)
+        if n_blk >= 2:
+            blocks = self.y[: n_blk * n_per].reshape(n_blk, n_per, self.nc).mean(axis=1)
+            var = blocks.var(axis=0, ddof=1) / n_blk
+        else:
+            var = self.y.var(axis=0) / self.y.shape[0]
+        units = self._units(measurement)
+        v = np.where(self.static_mask, var, np.inf)
+        for c in np.flatnonzero(self.static_mask):
+            same = [k for k in np.flatnonzero(self.static_mask) if units[k] == units[c]]
+            peers = [v[k] for k in same if 0 < v[k] < np.inf]
+            floor = float(np.median(peers)) if peers else 0.0
+            if v[c] <= 0 and floor <= 0:
+                v[c] = np.inf
+                measurement.issues.append(
+                    f"{self.names[c]}: constant signal and no channel of the same unit: its mean is not "
+                    "used as a feature"
+                )
+            else:
+                v[c] = max(v[c], floor)
+        self.v_static = v
+        self.static_mask &= np.isfinite(v)
+        if not self.static_mask.any():
+            self.families = tuple(f for f in self.families if f != "static")
 
     # -------------------------------------------------------------------------------- features
     def set_baseline(self, model: np.ndarray) -> None:
@@ -549,6 +649,12 @@ class Comparison:
                 self.d_env.append(p)
                 self.env_f, self.env_k = f, k
             self.env_floor = [float(np.median(p)) for p in self.d_env]
+            for c, fl in enumerate(self.env_floor):
+                if not fl > 0:
+                    self.m.issues.append(
+                        f"{self.names[c]}: no envelope content (zero spectrum): left out of the envelope "
+                        "features"
+                    )
 
     def _quick_gains(self, model: np.ndarray) -> np.ndarray:
         num = np.sum(self.y * model, axis=0)
@@ -608,7 +714,7 @@ class Comparison:
             ]
             for cs in feats.order
         ]
-        return ModelFeatures(order, feats.analytic)
+        return ModelFeatures(order, feats.analytic, feats.static)
 
     def features(self, model: np.ndarray) -> ModelFeatures:
         """Linear features (order coefficients, analytic band signals) of model outputs (n, c)."""
@@ -618,7 +724,7 @@ class Comparison:
             if ("envelope" in self.families)
             else []
         )
-        return ModelFeatures(order, analytic)
+        return ModelFeatures(order, analytic, np.asarray(model.mean(axis=0), dtype=float))
 
     def shifted(self, feats: ModelFeatures, dt: float) -> ModelFeatures:
         """Features of the signal delayed by ``dt`` (order phases; analytic signal by FFT shift)."""
@@ -634,29 +740,117 @@ class Comparison:
         for a in feats.analytic:
             f = np.fft.fftfreq(a.size, 1.0 / self.fs)
             analytic.append(np.fft.ifft(np.fft.fft(a) * np.exp(-2j * np.pi * f * dt)))
-        return ModelFeatures(order, analytic)
+        return ModelFeatures(order, analytic, feats.static)
 
     # ---------------------------------------------------------------------------------- scoring
+    def carriers(self, s: int) -> np.ndarray:
+        """Mask of the mesh-carrier orders (multiples of the shaft's tooth count) of shaft ``s``."""
+        sh = self.shafts[s]
+        if not sh.teeth:
+            return np.zeros(sh.orders.size, dtype=bool)
+        return sh.orders % sh.teeth == 0
+
+    def set_carrier_tolerance(self, tol: float) -> None:
+        """Model-form tolerance of the mesh carriers (estimated from the baseline fit)."""
+        self.carrier_tolerance = float(max(tol, self.s.tolerance))
+
     def order_sigma2(self, c: int, s: int, model: np.ndarray | None = None) -> np.ndarray:
-        """Noise variance plus the model-form tolerance on features present in both data and model."""
+        """Noise variance plus the model-form tolerance on features present in both data and model.
+
+        The mesh carriers get ``carrier_tolerance`` (model-form floor estimated after the baseline
+        fit), every other order the settings' ``tolerance``.
+        """
         if model is None:
             return self.v_order[c][s]
         common = np.minimum(np.abs(model), np.abs(self.d_order[c][s]))
-        return self.v_order[c][s] + (self.s.tolerance * common) ** 2
+        tol = self.s.tolerance
+        ct = getattr(self, "carrier_tolerance", tol)
+        if ct != tol:
+            tol = np.where(self.carriers(s), ct, tol)
+        return self.v_order[c][s] + (tol * common) ** 2
+
+    def carrier_mismatch(self, feats: ModelFeatures, score: Score) -> float:
+        """Median relative misfit ``|d - g m| / |g m|`` of the significant mesh carriers (``nan`` if none)."""
+        rel: list[np.ndarray] = []
+        G = np.column_stack([score.gains, score.slopes]) if score.slopes.size else score.gains
+        feats = self.apply_shift(feats, score.tau)
+        for c in range(self.nc):
+            for s in range(len(self.shafts)):
+                mask = self.carriers(s)
+                if not mask.any():
+                    continue
+                gm = (
+                    (self.order_gain(G, c, s) * feats.order[c][s])[mask]
+                    if G.ndim == 2
+                    else (G[c] * feats.order[c][s][mask])
+                )
+                d = self.d_order[c][s][mask]
+                sig = np.abs(gm) ** 2 > 9.0 * self.v_order[c][s][mask]
+                if sig.any():
+                    rel.append(np.abs(d - gm)[sig] / np.abs(gm)[sig])
+        return float(np.median(np.concatenate(rel))) if rel else float("nan")
+
+    def fix_transfer(self, slopes: np.ndarray | None) -> None:
+        """Hold the transfer slopes (fitted on the healthy/baseline model) while candidates are scored:
+        a slope refitted per candidate would trade with the amplitude of a low- or high-order effect."""
+        self.fixed_slopes = None if slopes is None else np.asarray(slopes, dtype=float).copy()
+
+    def order_gain(self, g: np.ndarray, c: int, s: int) -> np.ndarray | float:
+        """Per-feature gain of channel ``c`` on shaft ``s``: ``g0 (1 + b x)``, ``x = log10(f / f_mesh)``
+        clipped to one decade either side (the smooth transfer correction; ``g`` is (nc,) or (nc, 2))."""
+        if g.ndim == 1:
+            return g[c]
+        return g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
 
     def fit_gains(self, feats: ModelFeatures) -> np.ndarray:
-        """Per-channel gain by weighted least squares on the order features (bounded)."""
-        g = np.ones(self.nc)
+        """Per-channel gain and transfer slope by weighted least squares on the order features.
+
+        Returns (nc, 2): gain at the mesh frequency (bounded by ``gain_bounds``) and the relative
+        slope ``b`` per decade of frequency (bounded by ``transfer_slope_bounds``; 0 unless
+        ``fit_transfer``). Both are sensor/transfer-path nuisances, never effects.
+        """
+        g = np.zeros((self.nc, 2))
+        g[:, 0] = 1.0
         if not self.s.fit_gain or "order" not in self.families:
             return g
         for c in range(self.nc):
-            num = den = 0.0
+            A = np.zeros((2, 2))
+            rhs = np.zeros(2)
+            Ac = np.zeros((2, 2))  # mesh carriers only: the slope is fitted where the transfer path
+            rc = np.zeros(2)  # dominates and no library fault lives (eccentricity is order 1, ...)
             for s in range(len(self.shafts)):
-                w = 1.0 / self.order_sigma2(c, s, feats.order[c][s])
-                num += float(np.sum(w * np.real(np.conj(feats.order[c][s]) * self.d_order[c][s])))
-                den += float(np.sum(w * np.abs(feats.order[c][s]) ** 2))
-            if den > 0:
-                g[c] = np.clip(num / den, *self.s.gain_bounds)
+                m = feats.order[c][s]
+                w = 1.0 / self.order_sigma2(c, s, m)
+                x = self._xf[s]
+                mm = w * np.abs(m) ** 2
+                dm = w * np.real(np.conj(m) * self.d_order[c][s])
+                A += [[mm.sum(), (mm * x).sum()], [(mm * x).sum(), (mm * x * x).sum()]]
+                rhs += [dm.sum(), (dm * x).sum()]
+                k = self.carriers(s)
+                mk, dk, xk = mm[k], dm[k], x[k]
+                Ac += [[mk.sum(), (mk * xk).sum()], [(mk * xk).sum(), (mk * xk * xk).sum()]]
+                rc += [dk.sum(), (dk * xk).sum()]
+            # a gain is only fitted where the model's order content stands out of the noise (summed
+            # SNR^2 >= 100): a channel of pure noise (e.g. an axial force in a spur gearbox) keeps 1
+            if not (A[0, 0] >= 100.0 and np.all(np.isfinite(A)) and np.all(np.isfinite(rhs))):
+                continue
+            g0 = rhs[0] / A[0, 0]
+            b = 0.0
+            fixed = getattr(self, "fixed_slopes", None)
+            if fixed is not None:
+                b = float(fixed[c])
+                col = np.array([1.0, b])
+                g0 = float(col @ rhs) / float(col @ A @ col)
+            elif self.s.fit_transfer and Ac[0, 0] > 0 and np.linalg.det(Ac) > 1e-6 * Ac[0, 0] * Ac[1, 1]:
+                a_, b_ = np.linalg.solve(Ac, rc)
+                if a_ > 0:
+                    lo, hi = self.s.transfer_slope_bounds
+                    b = float(np.clip(b_ / a_, lo, hi))
+                    # gain given the (clipped) slope
+                    col = np.array([1.0, b])
+                    g0 = float(col @ rhs) / float(col @ A @ col)
+            g[c, 0] = np.clip(g0, *self.s.gain_bounds)
+            g[c, 1] = b
         return g
 
     def envelope_expected(self, c: int, p_model: np.ndarray, gain: float) -> np.ndarray:
@@ -686,7 +880,8 @@ class Comparison:
         """chi^2 per family with the time shift and per-channel gains fitted (unless given)."""
         tau = self.best_shift(feats) if tau is None else tau
         feats = self.apply_shift(feats, tau)
-        g = self.fit_gains(feats) if gains is None else gains
+        G = self.fit_gains(feats) if gains is None else np.asarray(gains, dtype=float)
+        g = G[:, 0] if G.ndim == 2 else G
         chi2: dict[str, float] = {}
         n: dict[str, int] = {}
         per: dict[str, dict[str, float]] = {}
@@ -697,20 +892,24 @@ class Comparison:
                 cc = nn = 0.0
                 rr = dd = 0.0
                 for s in range(len(self.shafts)):
-                    r = self.d_order[c][s] - g[c] * feats.order[c][s]
-                    s2 = self.order_sigma2(c, s, g[c] * feats.order[c][s])
+                    mg = self.order_gain(G, c, s) * feats.order[c][s]
+                    r = self.d_order[c][s] - mg
+                    s2 = self.order_sigma2(c, s, mg)
                     cc += float(np.sum(np.abs(r) ** 2 / s2))
                     nn += 2 * r.size
                     rr += float(np.sum(np.abs(r) ** 2))
                     dd += float(np.sum(np.abs(self.d_order[c][s]) ** 2))
                 chi2["order"] += 2 * cc  # complex: 2 real dof, each of variance s2/2
                 n["order"] += int(nn)
-                per["order"][self.names[c]] = math.sqrt(2 * cc / nn)
+                per["order"][self.names[c]] = math.sqrt(2 * cc / nn) if nn else float("nan")
                 rel["order"][self.names[c]] = math.sqrt(rr / dd) if dd > 0 else float("nan")
         env_r2: list[np.ndarray] = []
         if "envelope" in self.families:
             chi2["envelope"], n["envelope"], per["envelope"], rel["envelope"] = 0.0, 0, {}, {}
             for c in range(self.nc):
+                if not self.env_floor[c] > 0:
+                    env_r2.append(np.zeros(self.d_env[c].size))
+                    continue
                 gc = g[c] if "order" in self.families else 1.0
                 expect = self.envelope_expected(c, self.envelope_model(feats, c), gc)
                 r = self.d_env[c] - expect
@@ -730,7 +929,22 @@ class Comparison:
                 rel["envelope"][self.names[c]] = (
                     math.sqrt(float(np.sum(r * r)) / dd) if dd > 0 else float("nan")
                 )
-        return Score(chi2, n, g, per, rel, tau, env_r2)
+        static_r = np.zeros(0)
+        if "static" in self.families and feats.static.size == self.nc:
+            idx = np.flatnonzero(self.static_mask)
+            mg = g[idx] * feats.static[idx]
+            d = self.d_static[idx]
+            s2 = self.v_static[idx] + (self.s.static_tolerance * np.minimum(np.abs(mg), np.abs(d))) ** 2
+            static_r = (d - mg) / np.sqrt(s2)
+            chi2["static"] = float(np.sum(static_r**2))
+            n["static"] = int(idx.size)
+            per["static"] = {self.names[c]: float(abs(v)) for c, v in zip(idx, static_r, strict=True)}
+            rel["static"] = {
+                self.names[c]: float(abs(dd - mm) / abs(dd)) if dd else float("nan")
+                for c, dd, mm in zip(idx, d, mg, strict=True)
+            }
+        slopes = G[:, 1] if G.ndim == 2 else np.zeros(self.nc)
+        return Score(chi2, n, g, per, rel, tau, env_r2, slopes, static_r)
 
 
 # ---------------------------------------------------------------------------------------------------

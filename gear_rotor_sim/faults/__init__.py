@@ -9,7 +9,7 @@ candidate set of a rig).
 """
 
 from gear_rotor_sim.faults.base import Effect, ParameterSpec
-from gear_rotor_sim.faults.baseline import MeshStiffnessDamping
+from gear_rotor_sim.faults.baseline import BASELINE_TYPES, BearingStiffnessDamping, MeshStiffnessDamping
 from gear_rotor_sim.faults.bearing import (
     BEARING_6205,
     BEARING_6206,
@@ -21,16 +21,25 @@ from gear_rotor_sim.faults.bearing import (
     outer_race_defect,
 )
 from gear_rotor_sim.faults.gear import GearEccentricity, ToothDamage, ToothWear, tooth_share, wear_profile
-from gear_rotor_sim.faults.library import LIBRARY_NAMES, candidate_effects, effect_name
+from gear_rotor_sim.faults.library import (
+    BASELINE_NAMES,
+    LIBRARY_NAMES,
+    baseline_candidates,
+    candidate_effects,
+    effect_name,
+)
 from gear_rotor_sim.faults.operating import TemperatureOffset
 from gear_rotor_sim.faults.shaft import MassUnbalance, ShaftMisalignment
 
 __all__ = [
+    "BASELINE_NAMES",
+    "BASELINE_TYPES",
     "BEARING_6205",
     "BEARING_6206",
     "LIBRARY_NAMES",
     "BearingDefect",
     "BearingGeometry",
+    "BearingStiffnessDamping",
     "Effect",
     "GearEccentricity",
     "MassUnbalance",
@@ -41,6 +50,7 @@ __all__ = [
     "ToothDamage",
     "ToothWear",
     "ball_defect",
+    "baseline_candidates",
     "candidate_effects",
     "effect_name",
     "inner_race_defect",

@@ -7,7 +7,7 @@ from typing import Any
 
 from gear_rotor_sim.config import RigConfig
 from gear_rotor_sim.faults.base import Effect
-from gear_rotor_sim.faults.baseline import MeshStiffnessDamping
+from gear_rotor_sim.faults.baseline import BearingStiffnessDamping, MeshStiffnessDamping
 from gear_rotor_sim.faults.bearing import BEARING_6206, BearingDefect, BearingGeometry
 from gear_rotor_sim.faults.gear import GearEccentricity, ToothDamage, ToothWear
 from gear_rotor_sim.faults.operating import TemperatureOffset
@@ -31,7 +31,6 @@ LIBRARY_NAMES: tuple[str, ...] = (
     "tooth_damage",
     "tooth_wear",
     "temperature_offset",
-    "mesh_stiffness_damping",
     "outer_race_defect",
     "inner_race_defect",
     "ball_defect",
@@ -77,14 +76,26 @@ def candidate_effects(
     out += [MassUnbalance(node=n) for n in unbalance_nodes]
     out += [ShaftMisalignment(node=n) for n in misalignment_nodes]
     if has_mesh:
-        out += [ToothDamage(), ToothWear()]
+        out += [ToothDamage(wheel="pinion"), ToothDamage(wheel="gear"), ToothWear()]
     out.append(TemperatureOffset())
-    if has_mesh:
-        out.append(MeshStiffnessDamping())
     for kind in ("outer", "inner", "ball"):
         out += [BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry) for b in bearings]
     if names is not None:
         out = [e for e in out if effect_name(e) in names]
+    return out
+
+
+#: Names of the baseline parameter sets (uncertain nominal values; ``baseline_updates``, never effects).
+BASELINE_NAMES: tuple[str, ...] = ("mesh_stiffness_damping", "bearing_stiffness_damping")
+
+
+def baseline_candidates(cfg: RigConfig) -> list[Effect]:
+    """Baseline parameter sets applicable to a rig, at their nominal values (scale 1)."""
+    out: list[Effect] = []
+    if cfg.meshes:
+        out.append(MeshStiffnessDamping())
+    if cfg.bearings:
+        out.append(BearingStiffnessDamping())
     return out
 
 
@@ -102,4 +113,6 @@ EFFECT_TYPES: dict[str, Any] = {
     "outer_race_defect": functools.partial(BearingDefect, kind="outer"),
     "inner_race_defect": functools.partial(BearingDefect, kind="inner"),
     "ball_defect": functools.partial(BearingDefect, kind="ball"),
+    "mesh_stiffness_damping": MeshStiffnessDamping,
+    "bearing_stiffness_damping": BearingStiffnessDamping,
 }

@@ -194,7 +194,9 @@ def parse_fault(raw: Any, path: str = "faults[0]", cfg: Any = None) -> FaultSpec
         raise FaultError(f"{path}.type: missing (allowed: {', '.join(types)})")
     ftype = raw["type"]
     if ftype in NOT_INJECTABLE:
-        raise FaultError(f"{path}.type: {ftype!r} is not injectable: {NOT_INJECTABLE[ftype]}")
+        raise FaultError(
+            f"{path}.type: {ftype!r} is not injectable: {NOT_INJECTABLE[ftype]} (allowed: {', '.join(types)})"
+        )
     if ftype not in types:
         raise FaultError(f"{path}.type: {ftype!r} is not known (allowed: {', '.join(types)})")
     ctor = EFFECT_TYPES[ftype]
@@ -215,7 +217,7 @@ def parse_fault(raw: Any, path: str = "faults[0]", cfg: Any = None) -> FaultSpec
         default = fields[key].default
         if key == "wheel":
             if value not in ("pinion", "gear"):
-                raise FaultError(f"{kpath}: {value!r} is not one of pinion, gear")
+                raise FaultError(f"{kpath}: {value!r} is not a wheel (allowed: pinion, gear)")
             location[key] = value
         elif key in LOCATION_KEYS:
             location[key] = _integer(value, kpath, 1, 10_000)
@@ -225,7 +227,7 @@ def parse_fault(raw: Any, path: str = "faults[0]", cfg: Any = None) -> FaultSpec
             params[key] = _number(value, kpath, specs[key].lower, specs[key].upper)
         elif isinstance(default, bool):
             if not isinstance(value, bool):
-                raise FaultError(f"{kpath}: {value!r} is not true/false")
+                raise FaultError(f"{kpath}: {value!r} is not a boolean (allowed: true, false)")
             params[key] = value
         elif isinstance(default, int):
             params[key] = _integer(value, kpath, 0, 2**31 - 1)
@@ -245,7 +247,7 @@ def parse_fault(raw: Any, path: str = "faults[0]", cfg: Any = None) -> FaultSpec
     if onset > 0.0 and spec.changes_config():
         raise FaultError(
             f"{path}.onset_s: {onset:g}: {ftype} changes the assembled system (modify_config) and "
-            "applies when the fault list is applied; allowed: 0"
+            "applies when the fault list is applied (allowed: 0)"
         )
     growth = raw.get("growth")
     if growth is not None:
@@ -266,7 +268,7 @@ def _parse_growth(raw: Any, path: str, spec: FaultSpec, specs: Mapping) -> Growt
             raise FaultError(f"{path}.{key}: missing")
     law = raw["law"]
     if law not in GROWTH_LAWS:
-        raise FaultError(f"{path}.law: {law!r} is not one of {', '.join(GROWTH_LAWS)}")
+        raise FaultError(f"{path}.law: {law!r} is not a growth law (allowed: {', '.join(GROWTH_LAWS)})")
     if spec.changes_config():
         raise FaultError(
             f"{path}: {spec.type} cannot grow: it changes the assembled system (modify_config), "
@@ -282,7 +284,7 @@ def _parse_growth(raw: Any, path: str, spec: FaultSpec, specs: Mapping) -> Growt
     if law == "exponential" and not (spec.initial_severity > 0 and final > 0):
         raise FaultError(
             f"{path}.law: exponential growth needs {spec.severity_name} > 0 at onset and final > 0 "
-            f"(got {spec.initial_severity:g} -> {final:g}); use linear from 0"
+            f"(got {spec.initial_severity:g} -> {final:g}); allowed from 0: linear"
         )
     return Growth(law, final, duration)
 

@@ -188,7 +188,9 @@ def run(args: argparse.Namespace) -> int:
         cfg = load_config(args.config)
         if args.bearing_type:
             cfg = cfg.with_bearing_type(args.bearing_type)
-        streams = default_streams(len(cfg.bearings), displacement_nodes=nodes, has_mesh=bool(cfg.meshes))
+        streams = default_streams(
+            len(cfg.bearings), displacement_nodes=nodes, has_mesh=bool(cfg.meshes), n_meshes=len(cfg.meshes)
+        )
         channels = list(dict.fromkeys(c for s in streams for c in s.channels))
         sim = Simulator(
             cfg,

@@ -214,6 +214,7 @@ def select_streams(cfg, params: RunParameters) -> list[StreamSpec]:
         displacement_nodes=tuple(params.displacement_nodes),
         acceleration_nodes=tuple(params.acceleration_nodes),
         has_mesh=bool(cfg.meshes),
+        n_meshes=len(cfg.meshes),
     )
     if HOUSING_STREAM in params.streams and cfg.bearings:
         from gear_rotor_sim.sensors.housing import housing_channels
@@ -337,7 +338,9 @@ def record_run(
     from gear_rotor_sim.faults.truth import truth, truth_json
     from gear_rotor_sim.recording import schemas
     from gear_rotor_sim.recording.writer import McapRecorder
+    from gear_rotor_sim.sensors.housing import append_housing
     from gear_rotor_sim.simulator import Simulator
+    from gear_rotor_sim.system import drivetrain_metadata
 
     cfg, specs = validate_run(params)
     faults = fault_specs(params, cfg)
@@ -358,6 +361,7 @@ def record_run(
     )
     meta = {"generator": "gear-rotor-sim record", **{k: _text(v) for k, v in params.as_dict().items()}}
     meta["faults"] = truth_json(faults)
+    meta.update(drivetrain_metadata(cfg))  # per-shaft speed ratios, mesh orders
     meta.update(custom_data or {})
     steps = list(params.schedule)
     samples = {s.topic: 0 for s in specs}
@@ -393,7 +397,7 @@ def record_run(
             t_sim += t1 - t0
             if block.n_samples:
                 if housing is not None:
-                    block = _with_housing(block, housing)
+                    block = append_housing(block, housing)
                 for spec in specs:
                     rec.write_block(block, spec, seq)
                     samples[spec.topic] += block.n_samples
@@ -435,25 +439,6 @@ def _housing(specs: Sequence[StreamSpec], params: RunParameters):
 
     seed = zlib.crc32(json.dumps(params.as_dict(), sort_keys=True).encode("utf-8"))
     return HousingAccelerometers(spec.channels, params.sample_rate_hz, noise=SensorNoise(seed=seed))
-
-
-def _with_housing(block, housing):
-    """``block`` with the housing-acceleration channels appended."""
-    import numpy as np
-
-    from gear_rotor_sim.blocks import SampleBlock
-
-    acc = housing.process(block.select(housing.sources).data)
-    return SampleBlock(
-        block.t0,
-        block.sample_rate_hz,
-        block.channels + housing.channels,
-        block.units + ("m/s^2",) * len(housing.channels),
-        np.hstack([block.data, acc]),
-        block.first_index,
-        block.speed_rpm,
-        block.temperature_c,
-    )
 
 
 def _apply(sim, step: ScheduleStep) -> None:

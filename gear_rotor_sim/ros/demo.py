@@ -7,11 +7,13 @@ What it does, with real ROS 2 processes:
    ``config/simulator_node.yaml``, recording to an MCAP file, and the ``monitor`` executable;
 2. from this (separate) process, a node subscribes to every stream and publishes setpoints on
    ``/gear_rotor/setpoint/speed_rpm`` and ``/gear_rotor/setpoint/temperature_c``: a speed step, a few
-   invalid setpoints (refused), then a temperature step;
+   invalid setpoints (refused), then a temperature step, then a fault through the node's
+   ``~/set_faults`` service (``DEMO_FAULT``: tooth damage on gear tooth 5 at about 5 s);
 3. stops the simulator with SIGINT (the recording is finalised) and prints a summary: topics,
    message counts and rates, sequence continuity, the DTE's dominant frequency against the mesh
    frequency ``29 * rpm / 60``, the axial bearing force before and after the temperature step
-   against the thermal-expansion estimate, and what the MCAP file holds.
+   against the thermal-expansion estimate, the monitor's indicators of the DTE before and after
+   the fault, and what the MCAP file holds.
 
 The helpers (executable resolution, environment, :class:`Probe`) are reused by the node tests and
 the node benchmark.
@@ -37,6 +39,8 @@ import numpy as np
 
 PACKAGE = "gear_rotor_sim"
 REPO_ROOT = Path(__file__).resolve().parents[2]
+#: The fault the demo injects through ~/set_faults (docs/faults.md).
+DEMO_FAULT = "[{type: tooth_damage, wheel: gear, tooth: 5, depth: 0.3}]"
 STREAM_TOPICS = ("/gear_rotor/dte", "/gear_rotor/bearing_forces", "/gear_rotor/displacements")
 
 
@@ -363,16 +367,19 @@ def thermal_axial_force(
 # the demo
 # ------------------------------------------------------------------------------------------------
 def _read_mcap(path: Path) -> dict[str, list[tuple[int, int, int]]]:
-    """Per topic: (sequence, first_sample_index, n_samples) of every recorded VibrationChunk."""
+    """Per topic: (sequence, first_sample_index, n_samples) of every recorded VibrationChunk; other
+    message types (the fault ground truth) as (index, 0, 0)."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
     out: dict[str, list[tuple[int, int, int]]] = {}
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _schema, channel, _message, msg in reader.iter_decoded_messages():
-            if not hasattr(msg, "channel_names"):
-                continue  # not a VibrationChunk (e.g. the /gear_rotor/faults ground truth)
+        for schema, channel, _message, msg in reader.iter_decoded_messages():
+            if schema is None or not schema.name.endswith("VibrationChunk"):
+                recs = out.setdefault(channel.topic, [])
+                recs.append((len(recs), 0, 0))
+                continue
             n_ch = max(1, len(msg.channel_names))
             out.setdefault(channel.topic, []).append(
                 (msg.sequence, msg.first_sample_index, len(msg.data) // n_ch)
@@ -397,6 +404,41 @@ def startup_line(log: Path) -> str:
     except OSError:
         pass
     return "(no start-up line yet)"
+
+
+def set_faults(probe: Probe, faults_yaml: str, timeout_s: float = 30.0) -> tuple[bool, str]:
+    """Call the simulator's ``~/set_faults`` service from the probe's node."""
+    from gear_rotor_msgs.srv import SetFaults
+
+    client = probe.node.create_client(SetFaults, "/gear_rotor_simulator/set_faults")
+    if not client.wait_for_service(timeout_sec=timeout_s):
+        return False, "service /gear_rotor_simulator/set_faults not available"
+    future = client.call_async(SetFaults.Request(faults_yaml=faults_yaml))
+    wait_for(future.done, timeout_s, "the set_faults response")
+    res = future.result()
+    return bool(res.success), str(res.message)
+
+
+def print_fault_effect(indicators: Sequence, t_from: float, t_fault: float, t_after: float) -> None:
+    """Median indicators of the monitor's windows wholly before the fault and wholly after it
+    (``indicators``: the probe's ``(wall time, ConditionIndicators)`` pairs)."""
+    msgs = [m for _, m in indicators]
+
+    def stamp(m) -> float:
+        return m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
+
+    before = [m for m in msgs if t_from <= stamp(m) and stamp(m) + m.window_s <= t_fault]
+    after = [m for m in msgs if stamp(m) >= t_after]
+    if not before or not after:
+        print(f"not enough monitor windows (before {len(before)}, after {len(after)})")
+        return
+    print(f"{len(before)} windows before, {len(after)} after (medians)")
+    for k, name in enumerate(before[0].channel_names):
+        for field in ("kurtosis", "crest_factor", "sideband_amplitude", "rms"):
+            b = float(np.median([getattr(m, field)[k] for m in before]))
+            a = float(np.median([getattr(m, field)[k] for m in after]))
+            ratio = a / b if b else float("nan")
+            print(f"{name:10s} {field:18s} {b:12.4g} -> {a:12.4g}  (x {ratio:.2f})")
 
 
 def run_demo(
@@ -478,6 +520,12 @@ def run_demo(
         probe.set_temperature(temperature_to)
         t_end = t_temp + abs(temperature_to - 25.0) / temperature_ramp + 1.5
         probe.wait_sim_time(t_end, timeout_s=300.0)
+        # phase 3: a fault through the node's service
+        t_fault = probe.sim_time()
+        ok, message = set_faults(probe, DEMO_FAULT)
+        verdict = "accepted" if ok else "REFUSED"
+        print(f"[demo] t={t_fault:.2f} s: ~/set_faults {DEMO_FAULT}: {verdict}: {message}")
+        probe.wait_sim_time(t_fault + 2.0, timeout_s=300.0)
         time.sleep(1.2)  # one more /diagnostics period
     except TimeoutError as exc:
         print(f"[demo] ERROR: {exc}; see {out_dir}/simulator.log", file=sys.stderr)
@@ -545,6 +593,9 @@ def run_demo(
         "thermal-expansion estimate k_s a dT L / (1 + 2 k_s / k_b), "
         f"dT = {temperature_to - 25.0:g} C: {expected:.1f} N"
     )
+
+    print(f"\n=== monitor indicators of /gear_rotor/dte before/after the fault (t = {t_fault:.2f} s) ===")
+    print_fault_effect(probe.indicators, t_temp + 0.2, t_fault, t_fault + 0.3)
 
     print(f"\n=== recording {mcap_path} ===")
     if mcap_path.is_file():

@@ -10,6 +10,12 @@ publishes ``gear_rotor_msgs/msg/ConditionIndicators`` computed by
 - ``speed_rpm``: the operating point of the newest chunk in the window (orders refer to it);
 - ``alarm[i]``: ``rms[i] > alarm_threshold[i]``.
 
+With ``fault_thresholds_file`` (thresholds learnt from healthy runs, docs/detection.md) and housing
+accelerometer channels on the topic, every window is also checked by
+:class:`gear_rotor_sim.alarms.FaultAlarms` (FM0, FM4, NA4, SER, shaft orders, envelope lines, ...;
+the detection benchmark's computation): ``/diagnostics`` status ``gear_rotor_monitor: fault alarms``,
+WARN naming the fault types whose indicator groups exceed their thresholds, OK otherwise.
+
 A gap in ``first_sample_index`` (a chunk lost on a best-effort link) or a change of channels or
 sample rate restarts the window, so indicators are always computed over contiguous samples.
 """
@@ -22,6 +28,7 @@ from typing import Any
 
 import numpy as np
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from gear_rotor_msgs.msg import ConditionIndicators, VibrationChunk
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -31,7 +38,7 @@ from rclpy.parameter import Parameter
 
 from gear_rotor_sim.indicators import compute_indicators
 from gear_rotor_sim.ros.params import MONITOR_PARAMETERS, ParamError, broadcast, declare, spec_by_name
-from gear_rotor_sim.ros.simulator_node import RELIABLE_QOS, stream_qos
+from gear_rotor_sim.ros.simulator_node import DIAGNOSTICS_QOS, RELIABLE_QOS, stream_qos
 from gear_rotor_sim.streams import time_to_stamp
 
 NODE_NAME = "gear_rotor_monitor"
@@ -98,6 +105,16 @@ class MonitorNode(Node):
         )
         self.create_subscription(VibrationChunk, self._values["topic"], self._on_chunk, qos)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._fault_alarms: Any = None
+        path = str(self._values["fault_thresholds_file"]).strip()
+        if path:
+            from gear_rotor_sim.alarms import FaultAlarms
+
+            try:
+                self._fault_alarms = FaultAlarms(path)
+            except ValueError as exc:
+                raise ParamError(f"fault_thresholds_file: {exc}") from exc
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         new = dict(self._values)
@@ -164,9 +181,50 @@ class MonitorNode(Node):
         out.alarm_threshold = [float(t) for t in thresholds]
         out.alarm = [bool(r > t) for r, t in zip(ind.rms, thresholds, strict=True)]
         self._pub.publish(out)
+        if self._fault_alarms is not None and any("_housing_a" in c for c in msg.channel_names):
+            self._check_faults(window, msg, fs, speed, out.header.stamp)
         if any(out.alarm):
             names = [c for c, a in zip(out.channel_names, out.alarm, strict=True) if a]
             self.get_logger().warning(f"RMS alarm on {names}", throttle_duration_sec=5.0)
+
+    def _check_faults(
+        self, window: np.ndarray, msg: VibrationChunk, fs: float, speed: float, stamp: Any
+    ) -> None:
+        """Fault alarms of the window on /diagnostics; an error is logged, the node goes on."""
+        from types import SimpleNamespace
+
+        w = SimpleNamespace(
+            data=window,
+            channels=tuple(msg.channel_names),
+            sample_rate_hz=fs,
+            speed_rpm=speed,
+            temperature_c=float(msg.temperature_c),
+        )
+        try:
+            alarms, cls = self._fault_alarms.check(w)
+        except Exception as exc:  # a bad window must not stop the monitor
+            self.get_logger().warning(f"fault alarms not computed: {exc}", throttle_duration_sec=5.0)
+            return
+        t = stamp.sec + stamp.nanosec * 1e-9
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if alarms else DiagnosticStatus.OK,
+            name=f"{NODE_NAME}: fault alarms",
+            message=("alarm: " + ", ".join(sorted(alarms))) if alarms else "no fault alarm",
+            hardware_id="gear_rotor_sim",
+            values=[
+                KeyValue(key="window_start_s", value=f"{t:.6f}"),
+                KeyValue(key="operating_class", value=f"{cls[0]:g} rpm, {cls[1]:g} C"),
+                *[KeyValue(key=k, value=", ".join(v)) for k, v in sorted(alarms.items())],
+            ],
+        )
+        arr = DiagnosticArray()
+        arr.header.stamp = stamp
+        arr.status = [status]
+        self._diag_pub.publish(arr)
+        if alarms:
+            self.get_logger().warning(
+                f"fault alarm at {t:.3f} s: {sorted(alarms)}", throttle_duration_sec=2.0
+            )
 
 
 def main(args: list[str] | None = None) -> int:

@@ -22,7 +22,13 @@ from rclpy.parameter import Parameter
 
 from gear_rotor_sim.setpoints import check_setpoint  # shared with gear-rotor-sim serve
 
-STREAM_NAMES: tuple[str, ...] = ("dte", "bearing_forces", "displacements", "accelerations")
+STREAM_NAMES: tuple[str, ...] = (
+    "dte",
+    "bearing_forces",
+    "displacements",
+    "accelerations",
+    "housing_accelerations",
+)
 DOF_CHOICES: tuple[str, ...] = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
 BEARING_TYPE_CHOICES: tuple[str, ...] = ("", "A#", "B#", "C#")
 RELIABILITY_CHOICES: tuple[str, ...] = ("best_effort", "reliable")
@@ -247,6 +253,13 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         (1, 1000),
     ),
     ParamSpec(
+        "publish.housing_bearings",
+        Parameter.Type.INTEGER_ARRAY,
+        "Bearings (1-based) whose housing accelerometers x, y go to /gear_rotor/housing_accelerations "
+        "(single-DOF housing model and sensor noise of docs/faults.md, driven by the bearing forces).",
+        (1, 1000),
+    ),
+    ParamSpec(
         "publish.displacement_nodes",
         [5, 14],
         "Nodes (1-based, Fig 5) whose displacements go to /gear_rotor/displacements.",
@@ -268,6 +281,9 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("frame_ids.bearing_forces", "gearbox_housing", "frame_id of /gear_rotor/bearing_forces."),
     ParamSpec("frame_ids.displacements", "gearbox_housing", "frame_id of /gear_rotor/displacements."),
     ParamSpec("frame_ids.accelerations", "gearbox_housing", "frame_id of /gear_rotor/accelerations."),
+    ParamSpec(
+        "frame_ids.housing_accelerations", "gearbox_housing", "frame_id of /gear_rotor/housing_accelerations."
+    ),
     *_noise_specs(),
     ParamSpec(
         "publish_clock",
@@ -314,6 +330,13 @@ MONITOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "Topic of the published gear_rotor_msgs/msg/ConditionIndicators.",
     ),
     ParamSpec("window_s", 0.5, "Length of the analysis window, simulated seconds.", (1.0e-3, 600.0)),
+    ParamSpec(
+        "fault_thresholds_file",
+        "",
+        "JSON of fault-alarm thresholds learnt from healthy runs (benchmarks/detection.py "
+        "--save-thresholds; config/fault_thresholds.json); on a housing_accelerations topic the fault "
+        "indicators are checked per window and alarms go to /diagnostics. '' disables.",
+    ),
     ParamSpec(
         "pinion_teeth",
         29,
@@ -424,11 +447,22 @@ def check_simulator_values(values: dict[str, Any]) -> None:
         raise ParamError("model: empty; give a config name (e.g. paper_sun2021) or a YAML path")
     if values["recording.enabled"] and not str(values["recording.path"]).strip():
         raise ParamError("recording.path: empty while recording.enabled is true")
-    selected = ("publish.dte", "publish.bearings", "publish.displacement_nodes", "publish.acceleration_nodes")
+    selected = (
+        "publish.dte",
+        "publish.bearings",
+        "publish.displacement_nodes",
+        "publish.acceleration_nodes",
+        "publish.housing_bearings",
+    )
     if not any(values[k] for k in selected):
         raise ParamError("publish.*: no stream selected (dte, bearings, displacement or acceleration nodes)")
     if values["publish.displacement_nodes"] and not values["publish.displacement_dofs"]:
         raise ParamError("publish.displacement_dofs: empty while publish.displacement_nodes is not")
-    for key in ("publish.bearings", "publish.displacement_nodes", "publish.acceleration_nodes"):
+    for key in (
+        "publish.bearings",
+        "publish.displacement_nodes",
+        "publish.acceleration_nodes",
+        "publish.housing_bearings",
+    ):
         if len(set(values[key])) != len(values[key]):
             raise ParamError(f"{key}: duplicate entries in {values[key]}")

@@ -253,6 +253,7 @@ class SimulatorNode(Node):
         }
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         self._faults: NodeFaults | None = None  # built in start() (needs the rig)
+        self._housing: Any = None  # housing accelerometers, built in start()
         self._fault_pub = self.create_publisher(FaultState, FAULTS_TOPIC, FAULTS_QOS)
         self.create_service(SetFaults, "~/set_faults", self._on_set_faults)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
@@ -290,9 +291,29 @@ class SimulatorNode(Node):
         for spec in specs:
             channels = spec.channels
             if spec.name == "bearing_forces":
+                if not bearings:
+                    continue
                 channels = tuple(f"bearing{k}_f{d}" for k in bearings for d in "xyz")
             out.append(StreamSpec(spec.name, channels, str(v[f"frame_ids.{spec.name}"])))
+        housing = [int(b) for b in v["publish.housing_bearings"]]
+        if housing:
+            from gear_rotor_sim.sensors.housing import housing_channels
+
+            name = "housing_accelerations"
+            out.append(StreamSpec(name, housing_channels(housing), str(v[f"frame_ids.{name}"])))
         return out
+
+    def _housing_model(self) -> Any:
+        """Streaming housing accelerometers of the housing stream (docs/faults.md), or None."""
+        spec = next((s for s in self._streams if s.name == "housing_accelerations"), None)
+        if spec is None:
+            return None
+        from gear_rotor_sim.sensors.housing import HousingAccelerometers
+        from gear_rotor_sim.sensors.noise import SensorNoise
+
+        seed = int(self._values["noise.seed"]) + STREAM_NAMES.index(spec.name) + 1000
+        fs = float(self._values["output_sample_rate_hz"])
+        return HousingAccelerometers(spec.channels, fs, noise=SensorNoise(seed=seed))
 
     def start(self) -> None:
         """Load the model, build the simulator (and recorder), start the stepping thread.
@@ -321,8 +342,16 @@ class SimulatorNode(Node):
         except FaultError as exc:
             raise ParamError(f"faults_file: {faults_file}: {exc}") from exc
         self._faults = NodeFaults(cfg, initial)
+        self._cfg = cfg
+        if len(cfg.meshes) > 1:  # a multi-stage rig: the DTE stream carries every mesh's DTE and force
+            per_mesh = default_streams(0, n_meshes=len(cfg.meshes))[0].channels
+            self._streams = [
+                StreamSpec(sp.name, per_mesh, sp.frame_id) if sp.name == "dte" else sp for sp in self._streams
+            ]
         available = {name for name, _unit in Simulator.available_channels(cfg)}
-        channels = [c for s in self._streams for c in s.channels]
+        self._housing = self._housing_model()
+        channels = [c for s in self._streams if s.name != "housing_accelerations" for c in s.channels]
+        channels += list(self._housing.sources) if self._housing is not None else []
         missing = [c for c in channels if c not in available]
         if missing:
             raise ParamError(
@@ -369,6 +398,7 @@ class SimulatorNode(Node):
 
     def _open_recorder(self, path: str, flush_period_s: float) -> Any:
         from gear_rotor_sim.recording.writer import McapRecorder, RecordingError, qos_profile
+        from gear_rotor_sim.system import drivetrain_metadata
 
         reliable = self._values["stream_qos.reliability"] == "reliable"
         offered = dict(qos_profile("reliable" if reliable else "sensor_data"))
@@ -377,7 +407,13 @@ class SimulatorNode(Node):
         from gear_rotor_sim.recording.record_cli import latched_qos
 
         try:
-            rec = McapRecorder(path, self._streams, qos=offered, flush_period_s=flush_period_s)
+            rec = McapRecorder(
+                path,
+                self._streams,
+                qos=offered,
+                flush_period_s=flush_period_s,
+                custom_data=drivetrain_metadata(self._cfg),  # per-shaft speed ratios, mesh orders
+            )
             rec.add_topic(FAULTS_TOPIC, schemas.FAULT_STATE, qos=latched_qos())
             return rec
         except (OSError, ValueError, RecordingError) as exc:
@@ -620,6 +656,10 @@ class SimulatorNode(Node):
 
     def _publish_block(self, block: SampleBlock, t_end: float, sequence: dict, clock: Clock) -> None:
         self._publish_faults(block.t0)
+        if self._housing is not None:
+            from gear_rotor_sim.sensors.housing import append_housing
+
+            block = append_housing(block, self._housing)
         if self._rebuild_noise:
             self._rebuild_noise = False
             self._build_noise()

@@ -17,9 +17,10 @@ The arrays are passed grouped by role, as tuples:
 ``modal``   (zr, zi, rr, ri, c0r, c0i, swr, swi, crr, cri): modal state (updated), diagonal map,
             static increment, force-column responses ``SW`` (na, nmode) and mesh prediction rows
             ``(V Phi) r`` (2 nm, nmode: delta rows, then delta' rows).
-``mesh``    (pq, pq_static, pd, pv, mesh_par): responses of delta, delta' (2 nm, na) to the column
-            amplitudes and to the static load; ``pd``, ``pv`` (nm, nm) the elimination of the
-            mean-mesh compensation (see :func:`_mesh_system`); ``mesh_par`` (nm, 6) =
+``mesh``    (pq, pqn, pq_static, pd, pv, mesh_par): responses of delta, delta' (2 nm, na) to the
+            carried and to the new column amplitudes (equal for the full basis; with a reduced one
+            ``pqn`` adds the dropped modes' static response) and to the static load; ``pd``, ``pv``
+            (nm, nm) the elimination of the mean-mesh compensation; ``mesh_par`` (nm, 6) =
             (kbar, cbar, c_m, b*, e0, phi_te).
 ``tables``  (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump): per mesh, the
             full tables (nm, nt) / (nm, nt, nb), the flag of the intervals holding a jump, the
@@ -96,6 +97,7 @@ def run_chunk_meshes(
     carry: tuple,
     outs: tuple,
     bound: float,
+    fuse: bool = True,
 ) -> tuple[int, int, int]:
     """Advance ``n = phase.shape[0] - 1`` steps of the modal map with ``nm`` table meshes.
 
@@ -111,9 +113,10 @@ def run_chunk_meshes(
     3. the exact piecewise-linear mesh solve of Eqs 25-26 for all meshes together: the active set of
        :func:`kernels.mesh_solve` from the previous states (that function, with its exhaustive
        search, when it does not settle);
-    4. the new amplitudes, then ``z <- r z + c0 + sum_q SW_q alpha_q`` over the forced modes (one pass
-       per mesh with its ``nb`` <= 4 columns unrolled; the rest only propagate) and the predictions
-       ``Re((V Phi) r z)`` of the next step;
+    4. the new amplitudes, then ``z <- r z + c0 + sum_q SW_q alpha_q`` over the forced modes (the
+       rest only propagate) and the predictions ``Re((V Phi) r z)`` of the next step: for up to two
+       meshes (``fuse``) in one pass with the eight mesh columns and four prediction rows unrolled
+       (1-D views made before the loop); otherwise one pass per mesh and per prediction row;
     5. the outputs in blocks of ``hbuf.shape[0]`` steps by one matrix product.
 
     Returns
@@ -121,7 +124,7 @@ def run_chunk_meshes(
     (status, step, n_failed_mesh_solves)
     """
     zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2 = modal
-    pq, pq_static, pd, pv, mesh_par = mesh
+    pq, pqn, pq_static, pd, pv, mesh_par = mesh
     phase, phase_rate, kfac, te_add, ted_add, ampl = exc
     tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump = tables
     beta_prev, ypred, state = carry
@@ -169,6 +172,48 @@ def run_chunk_meshes(
     force = np.zeros(nm)
     work = np.zeros((nm, nm))
     rhs = np.zeros(nm)
+    # fused path for up to two meshes: the column rows and prediction rows as 1-D views from 0, made
+    # once (rows of a mesh that does not exist, or beyond nb, point at a zero row)
+    fused = fuse and nm <= 2 and nb <= 4
+    zero = np.zeros(max(nf, 1))
+    zfr = zr[:nf]
+    zfi = zi[:nf]
+    rfr = rr[:nf]
+    rfi = ri[:nf]
+    c0fr = c0r[:nf]
+    c0fi = c0i[:nf]
+    gr = np.zeros(nf)  # effect-column increments of a step
+    gi = np.zeros(nf)
+    qa = np.full(8, -1, dtype=np.int64)  # active column of each fused slot (-1: none)
+    for i in range(min(nm, 2)):
+        for j in range(min(nb, 4)):
+            qa[4 * i + j] = i * nb + j
+    s0r = swr2[qa[0], :nf] if qa[0] >= 0 else zero[:nf]
+    s0i = swi2[qa[0], :nf] if qa[0] >= 0 else zero[:nf]
+    s1r = swr2[qa[1], :nf] if qa[1] >= 0 else zero[:nf]
+    s1i = swi2[qa[1], :nf] if qa[1] >= 0 else zero[:nf]
+    s2r = swr2[qa[2], :nf] if qa[2] >= 0 else zero[:nf]
+    s2i = swi2[qa[2], :nf] if qa[2] >= 0 else zero[:nf]
+    s3r = swr2[qa[3], :nf] if qa[3] >= 0 else zero[:nf]
+    s3i = swi2[qa[3], :nf] if qa[3] >= 0 else zero[:nf]
+    s4r = swr2[qa[4], :nf] if qa[4] >= 0 else zero[:nf]
+    s4i = swi2[qa[4], :nf] if qa[4] >= 0 else zero[:nf]
+    s5r = swr2[qa[5], :nf] if qa[5] >= 0 else zero[:nf]
+    s5i = swi2[qa[5], :nf] if qa[5] >= 0 else zero[:nf]
+    s6r = swr2[qa[6], :nf] if qa[6] >= 0 else zero[:nf]
+    s6i = swi2[qa[6], :nf] if qa[6] >= 0 else zero[:nf]
+    s7r = swr2[qa[7], :nf] if qa[7] >= 0 else zero[:nf]
+    s7i = swi2[qa[7], :nf] if qa[7] >= 0 else zero[:nf]
+    # prediction rows: delta_1, delta_1', delta_2, delta_2'
+    p0r = crr2[0, :nf]
+    p0i = cri2[0, :nf]
+    p1r = crr2[nm, :nf]
+    p1i = cri2[nm, :nf]
+    p2r = crr2[1, :nf] if nm > 1 else zero[:nf]
+    p2i = cri2[1, :nf] if nm > 1 else zero[:nf]
+    p3r = crr2[nm + 1, :nf] if nm > 1 else zero[:nf]
+    p3i = cri2[nm + 1, :nf] if nm > 1 else zero[:nf]
+    al = np.zeros(8)
     n_fail = 0
     n_buf = hbuf.shape[0]
     hb = 0
@@ -218,17 +263,17 @@ def run_chunk_meshes(
                 sd += pq[i, q] * beta_prev[q]
                 sv += pq[nm + i, q] * beta_prev[q]
             for q in range(e0, na):
-                sd += pq[i, q] * beta_new[q]
-                sv += pq[nm + i, q] * beta_new[q]
+                sd += pqn[i, q] * beta_new[q]
+                sv += pqn[nm + i, q] * beta_new[q]
             a1[i] = sd
             b1[i] = sv
             for l in range(nm):
                 c = l * nb
-                td = -coef[l, 0] * pq[i, c]
-                tv = -coef[l, 0] * pq[nm + i, c]
+                td = -coef[l, 0] * pqn[i, c]
+                tv = -coef[l, 0] * pqn[nm + i, c]
                 for j in range(1, nb):
-                    td += pq[i, c + j] * coef[l, j]
-                    tv += pq[nm + i, c + j] * coef[l, j]
+                    td += pqn[i, c + j] * coef[l, j]
+                    tv += pqn[nm + i, c + j] * coef[l, j]
                 gd[i, l] = td
                 gv[i, l] = tv
         for l in range(nm):
@@ -355,7 +400,65 @@ def run_chunk_meshes(
         for q in range(na):
             alpha[q] = beta_prev[q] + beta_new[q]
             beta_prev[q] = beta_new[q]
-        for i in range(nm):
+        if fused:
+            # one pass over the forced modes: update with the (up to) eight mesh columns and the
+            # effect increments, and the four predictions of the next step
+            has_g = False
+            for q in range(e0, na):
+                aq = alpha[q]
+                if aq != 0.0:
+                    q0 = q * nmode
+                    if not has_g:
+                        for j in range(nf):
+                            gr[j] = swr[q0 + j] * aq
+                            gi[j] = swi[q0 + j] * aq
+                        has_g = True
+                    else:
+                        for j in range(nf):
+                            gr[j] += swr[q0 + j] * aq
+                            gi[j] += swi[q0 + j] * aq
+            if not has_g and ne > 0:
+                for j in range(nf):
+                    gr[j] = 0.0
+                    gi[j] = 0.0
+            for u in range(8):
+                al[u] = alpha[qa[u]] if qa[u] >= 0 else 0.0
+            b0, b1_, b2_, b3_, b4_, b5_, b6_, b7_ = al[0], al[1], al[2], al[3], al[4], al[5], al[6], al[7]
+            y0 = 0.0
+            y1 = 0.0
+            y2 = 0.0
+            y3 = 0.0
+            for j in range(nf):
+                xr = zfr[j]
+                xi = zfi[j]
+                tr = (
+                    rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
+                    + s3r[j] * b3_ + s4r[j] * b4_ + s5r[j] * b5_ + s6r[j] * b6_ + s7r[j] * b7_
+                )  # fmt: skip
+                ti = (
+                    rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
+                    + s3i[j] * b3_ + s4i[j] * b4_ + s5i[j] * b5_ + s6i[j] * b6_ + s7i[j] * b7_
+                )  # fmt: skip
+                if ne > 0:
+                    tr += gr[j]
+                    ti += gi[j]
+                zfr[j] = tr
+                zfi[j] = ti
+                y0 += p0r[j] * tr - p0i[j] * ti
+                y1 += p1r[j] * tr - p1i[j] * ti
+                y2 += p2r[j] * tr - p2i[j] * ti
+                y3 += p3r[j] * tr - p3i[j] * ti
+            for j in range(nf, nmode):  # unforced modes only propagate
+                xr = zr[j]
+                xi = zi[j]
+                zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+                zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+            ypred[0] = y0
+            ypred[nm] = y1
+            if nm > 1:
+                ypred[1] = y2
+                ypred[nm + 1] = y3
+        for i in range(nm if not fused else 0):
             c = i * nb
             a0 = alpha[c]
             a1_ = alpha[c + 1] if nb > 1 else 0.0
@@ -381,19 +484,20 @@ def run_chunk_meshes(
                 for j in range(nf):
                     zr[j] += swr[q0 + j] * a0 + swr[q1 + j] * a1_ + swr[q2 + j] * a2_ + swr[q3 + j] * a3_
                     zi[j] += swi[q0 + j] * a0 + swi[q1 + j] * a1_ + swi[q2 + j] * a2_ + swi[q3 + j] * a3_
-        for q in range(e0, na):  # effect columns
-            aq = alpha[q]
-            if aq != 0.0:
-                q0 = q * nmode
-                for j in range(nf):
-                    zr[j] += swr[q0 + j] * aq
-                    zi[j] += swi[q0 + j] * aq
-        for j in range(nf, nmode):  # unforced modes only propagate
-            xr = zr[j]
-            xi = zi[j]
-            zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
-            zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
-        for r in range(2 * nm):
+        if not fused:
+            for q in range(e0, na):  # effect columns
+                aq = alpha[q]
+                if aq != 0.0:
+                    q0 = q * nmode
+                    for j in range(nf):
+                        zr[j] += swr[q0 + j] * aq
+                        zi[j] += swi[q0 + j] * aq
+            for j in range(nf, nmode):  # unforced modes only propagate
+                xr = zr[j]
+                xi = zi[j]
+                zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+                zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+        for r in range(2 * nm if not fused else 0):
             q0 = r * nmode
             sm = 0.0
             for j in range(nf):

@@ -22,6 +22,7 @@ same map is run with the dense real transition matrix ``T = (I - hA/2)^-1 (I + h
 
 from __future__ import annotations
 
+import hashlib
 import re
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -77,13 +78,17 @@ def quantize_speed_rpm(speed_rpm: float) -> float:
     return float(np.exp(np.round(np.log(speed_rpm) / step) * step))
 
 
+def mesh_frequencies_hz(system: AssembledSystem, speed_rpm: float) -> list[float]:
+    """Mesh frequency of every mesh at an input speed, Hz, in the order of ``meshes``."""
+    return [
+        m.pinion_teeth * abs(float(system.shaft_speed_ratios[m.pinion_shaft])) * speed_rpm / 60.0
+        for m in system.meshes
+    ]
+
+
 def mesh_frequency_hz(system: AssembledSystem, speed_rpm: float) -> float:
     """Highest mesh frequency of the system at an input speed, Hz (0 without meshes)."""
-    f = 0.0
-    for m in system.meshes:
-        ratio = abs(float(system.shaft_speed_ratios[m.pinion_shaft]))
-        f = max(f, m.pinion_teeth * ratio * speed_rpm / 60.0)
-    return f
+    return max(mesh_frequencies_hz(system, speed_rpm), default=0.0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -325,13 +330,37 @@ def _block_eig(a_s: np.ndarray, blocks: list[np.ndarray], n: int) -> tuple[np.nd
     return lam, phi
 
 
+#: Bases by content (state matrix, force columns, mesh rows, speed): simulators of one machine that
+#: differ only in effects without new matrices (a calibration runs dozens) diagonalise once.
+_BASIS_MEMO: OrderedDict[str, Basis] = OrderedDict()
+_BASIS_MEMO_SIZE = 6
+
+
 def eigen_basis(lin: LinearModel, omega: float, force_dense: bool = False) -> Basis:
     """Diagonalise the state matrix at input speed ``omega`` (rad/s); fall back to dense if needed.
 
     Kept modes are ordered with the *forced* modes first: those that a force column other than the
     static load reaches, or that the mesh deflection reads (see :func:`mesh_kernel.run_chunk_one_mesh`).
+    Memoised on the content of everything it reads (``_BASIS_MEMO``); bases are never modified.
     """
     a = lin.state_matrix(omega)
+    h = hashlib.sha1()
+    for arr in (a, lin.MinvF, lin.V, lin.MinvK):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    h.update(repr((float(omega), bool(force_dense), a.shape, np.shape(lin.MinvF))).encode())
+    key = h.hexdigest()
+    hit = _BASIS_MEMO.get(key)
+    if hit is not None:
+        _BASIS_MEMO.move_to_end(key)
+        return hit
+    out = _eigen_basis(lin, omega, force_dense, a)
+    _BASIS_MEMO[key] = out
+    if len(_BASIS_MEMO) > _BASIS_MEMO_SIZE:
+        _BASIS_MEMO.popitem(last=False)
+    return out
+
+
+def _eigen_basis(lin: LinearModel, omega: float, force_dense: bool, a: np.ndarray) -> Basis:
     n = lin.nfree
     # balance q and v: eigenvectors of S^-1 A S with S = diag(I, s I) (much better conditioned)
     sc = float(np.sqrt(np.median(np.abs(np.diag(lin.MinvK))) + 1.0))
@@ -399,6 +428,48 @@ class StepMap:
     dfeed: np.ndarray
     basis: Basis
     nmode: int
+    # modal reduction: static response of the dropped modes to the column amplitudes, (nstate, m)
+    resid: np.ndarray | None = None
+
+
+def reduce_basis(basis: Basis, cutoff_hz: float) -> tuple[Basis, np.ndarray]:
+    """The kept modes with ``|lambda| <= 2 pi cutoff_hz`` (forced ones first, as in ``basis``), and the
+    positions of the dropped ones in ``basis``'s kept order. At least one mode is retained."""
+    mag = np.abs(basis.lam)
+    ret = np.flatnonzero(mag <= 2.0 * np.pi * cutoff_hz)
+    if ret.size == 0:
+        ret = np.array([int(np.argmin(mag))])
+    drop = np.setdiff1d(np.arange(mag.size), ret)
+    nf = basis.n_forced if basis.n_forced >= 0 else mag.size
+    red = Basis(
+        basis.omega,
+        False,
+        basis.lam[ret],
+        basis.phi[:, ret],
+        basis.lu,
+        basis.kept[ret],
+        basis.cond,
+        None,
+        basis.scale,
+        int(np.count_nonzero(ret < nf)),
+        basis.light,
+    )
+    return red, drop
+
+
+def residual_flexibility(lin: LinearModel, basis: Basis, drop: np.ndarray) -> np.ndarray:
+    """Static (mode-acceleration) response of the dropped modes to unit column amplitudes, (nstate, m).
+
+    A mode far above the excitation follows it quasi-statically: ``z_j' = lam_j z_j + w_j g`` gives
+    ``z_j = -w_j g / lam_j`` (``w = Phi^-1 B f``), so the dropped modes add ``Re(Phi_D diag(-1/lam_D)
+    W_D) g`` to the state. For a conjugate pair the velocity part of this sum vanishes (the q-part of
+    ``B`` is zero), so it is a displacement correction, the residual flexibility of the dropped modes.
+    """
+    n = lin.nfree
+    bf = np.zeros((lin.nstate, lin.m))
+    bf[n:] = lin.MinvF
+    w = basis.to_modal(bf)[drop]  # (nd, m)
+    return (basis.phi[:, drop] @ (w / -basis.lam[drop][:, None])).real
 
 
 def _pad(n: int) -> int:
@@ -686,7 +757,7 @@ class MeshesMap:
     cols: np.ndarray  # LinearModel column index of each active column
     modal: tuple  # (zr, zi) are filled per chunk; (rr, ri, c0r, c0i, swr, swi, crr, cri)
     n_forced: int
-    mesh: tuple  # (pq, pq_static, pd, pv, mesh_par)
+    mesh: tuple  # (pq, pqn, pq_static, pd, pv, mesh_par)
     tables: tuple  # (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump)
     cstack: np.ndarray
     dfeed_static: np.ndarray
@@ -694,41 +765,61 @@ class MeshesMap:
 
 def _output_stack(
     lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None, cols: np.ndarray, ucol: list[int]
-) -> np.ndarray:
-    """Output matrix ``[z_r, z_i, beta] -> channels`` of the fast kernels.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Output matrix ``[z_r, z_i, beta] -> channels`` of the fast kernels and the static offsets.
 
     With ``specs`` every channel in order (``dte_i = V_i x``, mesh force ``F_i = kbar_i delta_i + c_i
     delta_i' - u_i``, both linear in the modal state and the active column amplitudes; ``ucol[i]`` is
-    the active column of ``u_i``); without, or with no state-row channel, only the state rows.
+    the active column of ``u_i``); without, or with no state-row channel, only the state rows. With a
+    reduced basis (``mp.resid``) each channel also reads the dropped modes' static part through the
+    column amplitudes (the static-load column's into the offset).
     """
     npad = mp.nmode
     nk = mp.basis.lam.size
     n = lin.nfree
     nrow = mp.outr.shape[0]
+    cx = rres = None
+    if mp.resid is not None:
+        cx, _ = lin.output_rows([sp for sp in specs or () if sp.kind == "row"], mp.basis.omega)
+        rres = cx @ mp.resid  # (nrow, m)
     rows = np.zeros((2 * npad + cols.size, nrow))
+    static_add = np.zeros(nrow)
     if nrow:
         rows[:npad] = mp.outr.T
         rows[npad : 2 * npad] = -mp.outi.T
         rows[2 * npad :] = mp.dfeed[:, cols].T
+        if rres is not None and rres.shape[0] == nrow:
+            rows[2 * npad :] += rres[:, cols].T
+            static_add += rres[:, 0]
     if specs is None or nrow == 0:
-        return rows
+        return rows, static_add
     cstack = np.zeros((rows.shape[0], len(specs)))
+    static_add = np.zeros(len(specs))
     o = 0
     for i, sp in enumerate(specs):
         if sp.kind == "row":
             cstack[:, i] = rows[:, o]
+            if rres is not None:
+                static_add[i] = rres[o, 0]
             o += 1
             continue
         vd = np.zeros(npad, dtype=complex)
         vv = np.zeros(npad, dtype=complex)
         vd[:nk] = lin.V[sp.mesh] @ mp.basis.phi[:n]
         vv[:nk] = lin.V[sp.mesh] @ mp.basis.phi[n:]
+        rd = np.zeros(lin.m)
+        if mp.resid is not None:
+            rd = lin.V[sp.mesh] @ mp.resid[:n]
         if sp.kind == "force":
             vd = lin.kbar[sp.mesh] * vd + lin.cmesh[sp.mesh] * vv
             cstack[2 * npad + ucol[sp.mesh], i] = -1.0
+            if mp.resid is not None:
+                rd = lin.kbar[sp.mesh] * rd + lin.cmesh[sp.mesh] * (lin.V[sp.mesh] @ mp.resid[n:])
         cstack[:npad, i] = vd.real
         cstack[npad : 2 * npad, i] = -vd.imag
-    return cstack
+        cstack[2 * npad :, i] += rd[cols]
+        static_add[i] = rd[0]
+    return cstack, static_add
 
 
 def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None = None) -> MeshesMap | None:
@@ -763,8 +854,15 @@ def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | Non
     cols = np.array([*cols_l, *range(lin.col_eff0, lin.m)], dtype=np.int64)
     nf = mp.basis.n_forced if mp.basis.n_forced >= 0 else mp.basis.lam.size
     pq = mp.pq[:, cols]
-    hd = pq[:nm, ucol]
-    hv = pq[nm:, ucol]
+    pq_static = 2.0 * mp.pq[:, 0]
+    pqn = pq.copy()  # response to the new amplitudes (with a reduced basis: plus the dropped modes')
+    if mp.resid is not None:
+        n = lin.nfree
+        rm = np.vstack([lin.V @ mp.resid[:n], lin.V @ mp.resid[n:]])  # (2 nm, m)
+        pqn += rm[:, cols]
+        pq_static = pq_static + rm[:, 0]
+    hd = pqn[:nm, ucol]
+    hv = pqn[nm:, ucol]
     emat = np.eye(nm) - lin.kbar[:, None] * hd - lin.cmesh[:, None] * hv
     einv = np.linalg.inv(emat)
     tab_kf = np.zeros((nm, nt))
@@ -805,19 +903,14 @@ def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | Non
         mp.crr,
         mp.cri,
     )
-    mesh = (aligned(pq), aligned(2.0 * mp.pq[:, 0]), aligned(hd @ einv), aligned(hv @ einv), mesh_par)
+    mesh = (aligned(pq), aligned(pqn), aligned(pq_static), aligned(hd @ einv), aligned(hv @ einv), mesh_par)
     tables = (
         aligned(tab_kf), aligned(tab_cf), jflag, aligned(tab_k), aligned(tab_c),
         jump_p, jump_k, jump_c, n_jump,
     )  # fmt: skip
+    cstack, static_add = _output_stack(lin, mp, specs, cols, ucol)
     return MeshesMap(
-        cols,
-        modal,
-        int(nf),
-        mesh,
-        tables,
-        aligned(_output_stack(lin, mp, specs, cols, ucol)),
-        aligned(_static_feed(mp, specs)),
+        cols, modal, int(nf), mesh, tables, aligned(cstack), aligned(_static_feed(mp, specs) + static_add)
     )
 
 
@@ -1145,6 +1238,9 @@ class NewmarkStepper:
         self.fastm: MeshesMap | None = None
         self.disable_fast = disable_fast
         self.meshes_kernel = meshes_kernel_for_one
+        self.fuse_meshes = True  # multi-mesh kernel: fused pass for <= 2 meshes (False: tests)
+        self.modal_cutoff_hz: float | None = None  # modal reduction with static correction (None: full)
+        self._reduced: dict[tuple[float, float], tuple[Basis, np.ndarray]] = {}
         self.locate_events = bool(locate_events)
         self.n_substeps = 0
         self._hbuf = np.zeros((0, 0))
@@ -1164,15 +1260,50 @@ class NewmarkStepper:
 
     def set_operating_point(self, omega: float, dt: float, state: SolverState) -> None:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
-        if self.map is None or self.map.basis.omega != omega or self.map.dt != dt:
-            self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
+        cut = self.modal_cutoff_hz
+        if (
+            self.map is None
+            or self.map.basis.omega != omega
+            or self.map.dt != dt
+            or (self.map.resid is None) != (cut is None)
+        ):
+            basis = self.basis(omega)
+            resid = None
+            if cut is not None and not basis.dense and not self.disable_fast:
+                hit = self._reduced.get((omega, cut))
+                if hit is None:
+                    red, drop = reduce_basis(basis, cut)
+                    hit = (red, residual_flexibility(self.lin, basis, drop))
+                    self._reduced[(omega, cut)] = hit
+                    if len(self._reduced) > self._cache_size:
+                        self._reduced.pop(next(iter(self._reduced)))
+                basis, resid = hit
+            self.map = step_map(self.lin, basis, dt, self.specs)
+            self.map.resid = resid
             self.fast = self.fastm = None
             if not self.disable_fast:
-                if self.lin.nm == 1 and not self.meshes_kernel:
+                if self.lin.nm == 1 and not self.meshes_kernel and resid is None:
                     self.fast = fast_map(self.lin, self.map, self.specs)
                 if self.fast is None:
                     self.fastm = meshes_map(self.lin, self.map, self.specs)
+            if resid is not None and self.fastm is None:  # only the multi-mesh kernel takes it
+                self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
+                self.fastm = None if self.disable_fast else meshes_map(self.lin, self.map, self.specs)
         self.load_state(state)
+
+    def _beta_of(self, st: SolverState) -> np.ndarray:
+        """Amplitudes of all force columns (LinearModel order) at the state ``st``."""
+        lin = self.lin
+        beta = np.zeros(lin.m)
+        beta[0] = 1.0
+        for i in range(lin.nm):
+            for j in range(lin.nb):
+                c = lin.col_basis[i, j]
+                if c >= 0:
+                    beta[c] = st.coef[i, j] * st.force[i]
+            beta[lin.col_comp[i]] = lin.kbar[i] * st.delta[i] + lin.cmesh[i] * st.delta_dot[i]
+        beta[lin.col_eff0 :] = st.ampl
+        return beta
 
     def load_state(self, st: SolverState) -> None:
         """Map a physical state into the current basis and rebuild the carried force amplitudes."""
@@ -1188,15 +1319,7 @@ class NewmarkStepper:
             self.zi = aligned_zeros(mp.nmode)
             self.zr[: z.size] = z.real
             self.zi[: z.size] = z.imag
-        beta = np.zeros(lin.m)
-        beta[0] = 1.0
-        for i in range(lin.nm):
-            for j in range(lin.nb):
-                c = lin.col_basis[i, j]
-                if c >= 0:
-                    beta[c] = st.coef[i, j] * st.force[i]
-            beta[lin.col_comp[i]] = lin.kbar[i] * st.delta[i] + lin.cmesh[i] * st.delta_dot[i]
-        beta[lin.col_eff0 :] = st.ampl
+        beta = self._beta_of(st)
         self.beta_prev = aligned(beta)
         if self.fast is not None:
             self.beta_act = aligned(beta[self.fast.cols])
@@ -1208,14 +1331,19 @@ class NewmarkStepper:
         self.ypred = aligned((mp.crr @ self.zr - mp.cri @ self.zi) if lin.nm else np.zeros(0))
         self.contact = st.contact.astype(np.int64).copy()
 
-    def physical_x(self) -> np.ndarray:
+    def physical_x(self, st: SolverState | None = None) -> np.ndarray:
+        """Physical state ``x``; with a reduced basis plus the dropped modes' static part at the column
+        amplitudes of ``st`` (the state just reached)."""
         mp = self.map
         assert mp is not None
         if mp.dense:
             return self.zr.copy()
         nk = mp.basis.lam.size
         z = self.zr[:nk] + 1j * self.zi[:nk]
-        return (mp.basis.phi @ z).real
+        x = (mp.basis.phi @ z).real
+        if mp.resid is not None and st is not None:
+            x += mp.resid @ self._beta_of(st)  # the dropped modes' static part
+        return x
 
     def initial_outputs(self, st: SolverState) -> np.ndarray:
         """Channel values at the state ``st`` (for filter history before the start)."""
@@ -1324,7 +1452,7 @@ class NewmarkStepper:
             st.contact = self.contact.copy()
             st.angle = float(angle[-2])
             st.time = float(t[-2])
-        st.x = self.physical_x()
+        st.x = self.physical_x(st)
         return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
     def _run_fast(
@@ -1401,7 +1529,7 @@ class NewmarkStepper:
             st.contact = self.contact.copy()
             st.angle = float(angle[-2])
             st.time = float(t[-2])
-        st.x = self.physical_x()
+        st.x = self.physical_x(st)
         # keep the general-kernel carry consistent (a later switch of path or basis reloads from st)
         exc = (kt[:, None], et[:, None], edt[:, None], coef[:, None, :], ampl)
         return ch, dte, dted, fm, states, exc
@@ -1456,6 +1584,7 @@ class NewmarkStepper:
             (self.beta_act, self.ypred, self.contact),
             (fm_.cstack, fm_.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef),
             bound,
+            self.fuse_meshes,
         )
         self.n_mesh_fail += nfail
         if status != kernels.STATUS_OK:
@@ -1481,7 +1610,7 @@ class NewmarkStepper:
             st.contact = self.contact.copy()
             st.angle = float(angle[-2])
             st.time = float(t[-2])
-        st.x = self.physical_x()
+        st.x = self.physical_x(st)
         return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
 

@@ -20,6 +20,7 @@ from gear_rotor_sim.solver.newmark import (
     NewmarkStepper,
     SolverState,
     check_steps_per_mesh,
+    mesh_frequencies_hz,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
@@ -115,9 +116,10 @@ def simulate_steady(
     period = 1.0 / f_mesh
     omega = speed_rpm * 2.0 * np.pi / 60.0
     omega_q = quantize_speed_rpm(speed_rpm) * 2.0 * np.pi / 60.0
-    res_rate = (
-        resonance_rate_hz(f_mesh, light_mesh_modes(stepper.lin, stepper.basis(omega_q))) if adaptive else 0.0
-    )
+    res_rate = 0.0
+    if adaptive:  # a light mode near a low harmonic of any mesh
+        light = light_mesh_modes(stepper.lin, stepper.basis(omega_q))
+        res_rate = max(resonance_rate_hz(f, light) for f in mesh_frequencies_hz(system, speed_rpm))
     spm = rule_steps_per_mesh(f_mesh, False, int(steps_per_mesh), contact_loss_rate_hz, res_rate)
     stepper.locate_events = located(spm, False)
     dt = period / spm
@@ -145,7 +147,7 @@ def simulate_steady(
         seg_j += nstep
         idx = np.arange(1, nstep + 1)
         rec = idx > m_tr * spm
-        lost = bool(states.shape[1]) and bool(states.shape[0]) and int(states[:, 0].min()) < 2
+        lost = bool(states.shape[1]) and bool(states.shape[0]) and int(states.min()) < 2
         if adaptive and not switched and lost:
             switched = True
             spm = rule_steps_per_mesh(f_mesh, True, int(steps_per_mesh), contact_loss_rate_hz, res_rate)
@@ -168,9 +170,9 @@ def simulate_steady(
             outs.append(ch[sel])
             times.append(t[1:-1][sel])
         if states.shape[1]:
-            s0 = states[rec, 0]
-            n_loss += int(np.count_nonzero(s0 == 0))
-            n_back += int(np.count_nonzero(s0 < 0))
+            s0 = states[rec]  # a step counts when any mesh is out of drive-flank contact
+            n_loss += int(np.count_nonzero((s0 == 0).any(axis=1)))
+            n_back += int(np.count_nonzero((s0 < 0).any(axis=1)))
         n_rec += int(np.count_nonzero(rec))
     data = np.concatenate(outs) if outs else np.zeros((0, len(specs)))
     tt = np.concatenate(times) if times else np.zeros(0)
