@@ -63,6 +63,7 @@ from gear_rotor_sim.faults import (
     BearingStiffnessDamping,
     Effect,
     GearEccentricity,
+    GearMisalignment,
     MassUnbalance,
     MeshStiffnessDamping,
     ShaftMisalignment,
@@ -98,6 +99,7 @@ class CandidateFit:
     uncertainty: dict[str, float]
     delta_bic: float = 0.0
     explained: float = 0.0
+    feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
 
     @property
     def name(self) -> str:
@@ -110,7 +112,7 @@ class FoundEffect:
 
     name: str
     label: str
-    parameters: dict[str, float]
+    parameters: dict[str, Any]  # fitted values (+ location keys such as wheel)
     uncertainty: dict[str, float]
     confidence: float
     delta_bic: float
@@ -381,7 +383,7 @@ class Calibrator:
         return FoundEffect(
             effect_name(eff),
             eff.label,
-            eff.parameters(),
+            reported_parameters(eff),
             {"offset_c": sig},
             float(_logistic(dbic / 2)),
             float(dbic),
@@ -631,9 +633,8 @@ class Calibrator:
         )
         sd = self._curvature_sigma(obj, d_best, val, 0.02, 2, 0.0)
         eff = dataclasses.replace(e, tooth=i_best + 1, depth=d_best)
-        return CandidateFit(
-            eff, self.cmp.score(cur.combo(sig(d_best, i_best), 1.0)), None, 2, {"depth": sd, "tooth": 0.0}
-        )
+        feats = cur.combo(sig(d_best, i_best), 1.0)
+        return CandidateFit(eff, self.cmp.score(feats), None, 2, {"depth": sd, "tooth": 0.0}, feats=feats)
 
     def _fit_candidate(self, e: Effect, cur: ModelFeatures) -> CandidateFit | None:
         op = self.m.operating_point
@@ -641,6 +642,19 @@ class Calibrator:
             return self._fit_phase_amplitude(e, cur)
         if isinstance(e, ToothWear):
             return self._fit_scalar_amplitude(e, cur, None, "wear_depth_m", e.specs[0].upper)
+        if isinstance(e, GearMisalignment):
+            # |cos(theta + phi)| is not a cos/sin basis in phi: the phase on a 4-point grid
+            fits = [
+                self._fit_scalar_amplitude(
+                    e.with_parameters(phase_rad=ph), cur, None, "angle_rad", e.specs[0].upper
+                )
+                for ph in (-0.75 * math.pi, -0.25 * math.pi, 0.25 * math.pi, 0.75 * math.pi)
+            ]
+            fits = [f for f in fits if f is not None]
+            if not fits:
+                return None
+            best = min(fits, key=lambda f: f.score.balanced_chi2)
+            return dataclasses.replace(best, k=2)
         if isinstance(e, BearingDefect):
             return self._fit_scalar_amplitude(e, cur, None, "force_n", e.specs[0].upper)
         if isinstance(e, TemperatureOffset):
@@ -660,9 +674,42 @@ class Calibrator:
             return self._fit_tooth(e, cur)
         return None
 
-    def _signature_present(self, fit: CandidateFit, cur: Score) -> bool:
-        """Bearing defects must improve their own characteristic envelope lines significantly."""
+    def _tooth_comb_check(self, fit: CandidateFit, cur: Score) -> bool:
+        """A damaged tooth must improve the order comb of its own wheel's shaft significantly and
+        more than that of the mating wheel (the comb tells the wheel; a tooth candidate that gains
+        on the envelope or on the other shaft explains something else)."""
         e = fit.effect
+        if fit.feats is None or "order" not in self.cmp.families or len(self.cmp.shafts) < 2:
+            return True
+        cfg = self.runner.cfg
+        mesh = cfg.meshes[e.mesh - 1]
+        node0 = cfg.gear(mesh.pinion if e.wheel == "pinion" else mesh.gear).node0
+        shaft_name = cfg.shafts[cfg.shaft_of_node(node0)].name
+        names = [sh.name for sh in self.cmp.shafts]
+        if shaft_name not in names:
+            return True
+        own = names.index(shaft_name)
+        gain = self.cmp.comb_chi2(self._cur_feat, cur) - self.cmp.comb_chi2(fit.feats, fit.score)
+        others = np.delete(gain, own)
+        ok = gain[own] > self.fit.bic_threshold + math.log(self.n_total) and gain[own] >= float(
+            np.max(others, initial=-np.inf)
+        )
+        if not ok:
+            self.notes.append(
+                f"{e.label}: not claimed, the order comb of its wheel's shaft gains {gain[own]:.3g} "
+                f"(other shafts {', '.join(f'{g:.3g}' for g in others)})"
+            )
+        return bool(ok)
+
+    def _signature_present(self, fit: CandidateFit, cur: Score) -> bool:
+        """Bearing defects must improve their own characteristic envelope lines significantly; a damaged
+        tooth its own wheel's order comb."""
+        e = fit.effect
+        if isinstance(e, ToothDamage):
+            key = ("tooth", e.label, id(cur))
+            if key not in self._sig_checked:
+                self._sig_checked[key] = self._tooth_comb_check(fit, cur)
+            return self._sig_checked[key]
         if not isinstance(e, BearingDefect) or "envelope" not in self.cmp.families:
             return True
         key = ("signature", e.label, id(cur))
@@ -1107,7 +1154,7 @@ class Calibrator:
                         FoundEffect(
                             ver.name,
                             ver.effect.label,
-                            ver.effect.parameters(),
+                            reported_parameters(ver.effect),
                             ver.uncertainty,
                             float(0.5 * _logistic(dbic / 2) * p_sep),
                             float(dbic),
@@ -1186,7 +1233,7 @@ class Calibrator:
                 FoundEffect(
                     ver.name,
                     ver.effect.label,
-                    ver.effect.parameters(),
+                    reported_parameters(ver.effect),
                     ver.uncertainty,
                     float(p_model * p_sep),
                     float(ver.delta_bic),
@@ -1239,6 +1286,18 @@ class Calibrator:
             c: time_and_spectrum_errors(self.m.data[:, i], model[:, i], fs, max(lag, 1))
             for i, c in enumerate(self.cmp.names)
         }
+
+
+def reported_parameters(effect: Effect) -> dict[str, Any]:
+    """Fitted parameters plus the location that tells a finding apart: the wheel of a damaged tooth,
+    the tilted member of a gear misalignment."""
+    out: dict[str, Any] = dict(effect.parameters())
+    if isinstance(effect, ToothDamage):
+        out["wheel"] = effect.wheel
+        out["tooth"] = int(effect.tooth)
+    elif isinstance(effect, GearMisalignment):
+        out["member"] = effect.member
+    return out
 
 
 def _logistic(x: float) -> float:

@@ -70,11 +70,12 @@ def aligned(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def quantize_speed_rpm(speed_rpm: float) -> float:
-    """Speed at which the gyroscopic matrix is evaluated: a log grid of ratio 1 + SPEED_QUANTUM_REL."""
+def quantize_speed_rpm(speed_rpm: float, quantum_rel: float | None = None) -> float:
+    """Speed at which the gyroscopic matrix is evaluated: a log grid of ratio 1 + ``quantum_rel``
+    (default ``SPEED_QUANTUM_REL``)."""
     if speed_rpm < SPEED_ZERO_RPM:
         return 0.0
-    step = np.log1p(SPEED_QUANTUM_REL)
+    step = np.log1p(SPEED_QUANTUM_REL if quantum_rel is None else quantum_rel)
     return float(np.exp(np.round(np.log(speed_rpm) / step) * step))
 
 
