@@ -95,12 +95,14 @@ def test_benchmark_uses_the_scripts_measure_when_present(
     script = tmp_path / "bench_solver.py"
     script.write_text(
         "def measure(quick: bool) -> dict:\n"
-        "    return {'steps_per_s': 1.5e6, 'rtf_3000rpm': 40.0, 'rtf_20000rpm': 6.0, 'quick': quick}\n",
+        "    return {'steps_per_s': 1.5e6, 'rtf_3000rpm': 40.0, 'rtf_20000rpm': 6.0, 'quick': quick,\n"
+        "            'speedup_vs_full': 1.0, 'max_rms_dte_error_pct': 0.3}\n",
         encoding="utf-8",
     )
     monkeypatch.setattr(reproduce, "BENCH_SOLVER", script)
     got = reproduce.benchmark(0.001, quick=True)
     assert got["steps_per_s"] == 1.5e6 and got["quick"] is True
+    assert got["max_rms_dte_error_pct"] == 0.3  # the script's own figures are kept
     assert got["source"] == "benchmarks/bench_solver.py"
     script.write_text("def main() -> None:\n    pass\n", encoding="utf-8")
     assert reproduce._bench_solver_measure() is None
