@@ -213,6 +213,94 @@ def _bench_solver_measure(path: Path | None = None) -> Callable[..., dict] | Non
     return fn if callable(fn) else None
 
 
+#: Reference of ``default_against_full``: steps per mesh period, events located (as
+#: benchmarks/convergence_events.py).
+REFERENCE_STEPS_PER_MESH = 1024
+#: The points ``default_against_full`` checks in the quick and full runs: the Fig 7 speeds and the
+#: Fig 8 speed of the JSON summary at the paper's three temperatures (C, rpm).
+ACCURACY_POINTS = tuple((t, s) for t in (25.0, 125.0, 225.0) for s in (1000.0, 14400.0, 19000.0))
+
+
+def default_against_full(
+    points: tuple[tuple[float, float], ...] = ACCURACY_POINTS,
+    periods: int = 200,
+    transient_s: float = 0.2,
+    settle: int = 50,
+    rtf_chunk_s: float = 0.1,
+    repeats: int = 3,
+) -> dict[str, Any]:
+    """The default model against the full model on the paper gearbox (issue 13's JSON keys).
+
+    ``speedup_vs_full``: ``Simulator.advance`` RTF with the default settings over that with
+    ``modal_cutoff_hz=None`` (the full model), DTE only at 20000 rpm, 20 kHz output, the two advanced
+    alternately in ``rtf_chunk_s`` chunks after a warm-up (median of ``repeats``; same run).
+    ``max_rms_dte_error_pct``: per point, the reference (full model, ``REFERENCE_STEPS_PER_MESH``
+    located steps per mesh period, fixed) runs ``transient_s`` from the static equilibrium, then
+    ``periods`` recorded mesh periods; the default dt rule runs from the reference's state
+    (``settle`` periods, then ``periods``); the error of its RMS DTE against the reference's, largest
+    over the points whose reference motion is not chaotic (the RMS of a chaotic window is a
+    statistic, not a converged number; chaotic points are listed but not counted).
+
+    On the paper gearbox (one mesh) the default *is* the full model (``modal_cutoff_hz="auto"``
+    reduces multi-mesh rigs only; ``default_model`` says which), so the speed-up is 1 up to timing
+    noise and the error is that of the default dt rule alone.
+    """
+    from gear_rotor_sim.analysis.classify import classify_motion
+    from gear_rotor_sim.examples import paper_gearbox
+    from gear_rotor_sim.simulator import Simulator
+    from gear_rotor_sim.solver.newmark import mesh_frequency_hz
+    from gear_rotor_sim.solver.steady import simulate_steady
+    from gear_rotor_sim.system import GearRotorSystem
+
+    cfg = paper_gearbox()
+    sims = {
+        "default": Simulator(cfg, 20000.0, 25.0, 20000.0, channels=["dte"]),
+        "full": Simulator(cfg, 20000.0, 25.0, 20000.0, channels=["dte"], modal_cutoff_hz=None),
+    }
+    walls: dict[str, list[float]] = {k: [] for k in sims}
+    for sim in sims.values():
+        sim.advance(0.05)  # warm-up: kernels loaded, basis built
+    for _ in range(repeats):
+        for k, sim in sims.items():
+            t0 = time.perf_counter()
+            sim.advance(rtf_chunk_s)
+            walls[k].append(time.perf_counter() - t0)
+    rtf = {k: rtf_chunk_s / float(np.median(w)) for k, w in walls.items()}
+    mp = sims["default"]._stepper.map
+    reduced = mp is not None and mp.resid is not None
+    rows = []
+    for temp, rpm in points:
+        system = GearRotorSystem.from_config(cfg, temp)
+        ref_kw: dict[str, Any] = {"locate_events": True, "contact_loss_rate_hz": None}
+        n_tr = max(1, int(transient_s * mesh_frequency_hz(system, rpm)))
+        spm = REFERENCE_STEPS_PER_MESH
+        _, st0 = simulate_steady(system, rpm, 0, n_tr, spm, ("dte",), **ref_kw)
+        res_ref, _ = simulate_steady(system, rpm, 0, periods, spm, ("dte",), st0, "step", **ref_kw)
+        x_ref = res_ref.channel("dte")
+        motion = classify_motion(x_ref[spm - 1 :: spm], scale=float(np.ptp(x_ref))).label
+        res_def, _ = simulate_steady(system, rpm, settle, periods, 32, ("dte",), st0, "step")
+        rms_ref = float(np.sqrt(np.mean(x_ref**2)))
+        rms_def = float(np.sqrt(np.mean(res_def.channel("dte") ** 2)))
+        rows.append(
+            {
+                "temperature_c": temp,
+                "speed_rpm": rpm,
+                "motion": motion,
+                "rms_dte_error_pct": 100.0 * (rms_def / rms_ref - 1.0),
+                "default_steps_per_mesh": int(res_def.steps_per_mesh),
+            }
+        )
+    counted = [abs(r["rms_dte_error_pct"]) for r in rows if r["motion"] != "chaotic"]
+    return {
+        "speedup_vs_full": rtf["default"] / rtf["full"],
+        "max_rms_dte_error_pct": max(counted) if counted else float("nan"),
+        "default_model": "reduced" if reduced else "full",
+        "rtf_20000rpm_default_vs_full": [rtf["default"], rtf["full"]],
+        "accuracy_points": rows,
+        "accuracy_reference": f"full model, {REFERENCE_STEPS_PER_MESH} located steps per mesh period",
+    }
+
+
 def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) -> dict[str, Any]:
     """Steps per second and real-time factors of the solver (25 C, A#, the default dt rule).
 
@@ -238,6 +326,8 @@ def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) ->
                 if {"steps_per_s", "rtf_3000rpm", "rtf_20000rpm"} <= set(got):
                     got.setdefault("method", f"benchmarks/bench_solver.py measure(quick={quick})")
                     got["source"] = "benchmarks/bench_solver.py"
+                    if not {"speedup_vs_full", "max_rms_dte_error_pct"} <= set(got):
+                        got.update(default_against_full(periods=200 if quick else 400))
                     return got
             except Exception as exc:
                 msg = f"reproduce: bench_solver.measure failed ({exc!r}); timing Simulator.advance"
@@ -274,6 +364,8 @@ def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) ->
         "DTE channel at 10 kHz, the default dt rule"
     )
     out["source"] = "reproduce.benchmark"
+    # the smallest check (tests): one periodic point, short windows
+    out.update(default_against_full(((25.0, 1000.0),), periods=40, transient_s=0.3, settle=10, repeats=1))
     return out
 
 
@@ -948,6 +1040,9 @@ def summary_json(r: dict[str, Any]) -> dict[str, Any]:
             "steps_per_s": b["steps_per_s"],
             "rtf_3000rpm": b["rtf_3000rpm"],
             "rtf_20000rpm": b["rtf_20000rpm"],
+            "speedup_vs_full": b.get("speedup_vs_full"),
+            "max_rms_dte_error_pct": b.get("max_rms_dte_error_pct"),
+            "default_model": b.get("default_model"),
         },
     }
 
