@@ -10,6 +10,7 @@ record of the same machine at another speed as the baseline.
 Usage::
 
     python benchmarks/calibration_independent.py [--quick] [--jobs N] [--out DIR] [--cases SUBSTR ...]
+    python benchmarks/calibration_independent.py --from-results DIR [DIR ...]   # re-render saved results
 
 Prints a Markdown table (and writes ``table.md`` and ``results.json`` into ``--out``). Criteria per
 fault record: the injected effect is named first in ``effects`` (for tooth damage: on the right
@@ -72,6 +73,7 @@ class Case:
 
 
 def cases(quick: bool) -> list[Case]:
+    """Healthy records first, then the faults at each operating point (a cut-short run stays balanced)."""
     out: list[Case] = []
     seed = 11
     for op, (speed, temp) in OPS.items():
@@ -82,10 +84,11 @@ def cases(quick: bool) -> list[Case]:
             extra = f"_{fault.wheel}" if fault.name == "tooth_damage" else ""  # type: ignore[union-attr]
             out.append(Case(f"{op}_{fault.name}{extra}", speed, temp, f, seed))
             seed += 1
+    healthy = []
     for speed, temp in QUICK_HEALTHY if quick else HEALTHY:
-        out.append(Case(f"healthy_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, seed))
+        healthy.append(Case(f"healthy_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, seed))
         seed += 1
-    return out
+    return healthy + out
 
 
 def calibrate_command() -> list[str]:
@@ -211,6 +214,41 @@ def table(rows: list[dict[str, Any]]) -> str:
     return head + "\n".join(lines) + "\n"
 
 
+def collect(todo: list[Case], dirs: list[Path], baseline: bool) -> list[dict[str, Any]]:
+    """Rows from calibration results already on disk (``<tag>[.baseline].calibration.json``)."""
+    rows = []
+    for c in todo:
+        name = f"{c.tag}{'.baseline' if baseline else ''}.calibration.json"
+        found = [d / name for d in dirs if (d / name).exists()]
+        if not found:
+            rows.append({"record": c.tag, "truth": c.fault or "healthy", "first": "-", "verdict": "not run"})
+            continue
+        row = judge(c, json.loads(found[0].read_text()))
+        row["baseline"] = "yes" if baseline else None
+        rows.append(row)
+    return rows
+
+
+def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str) -> str:
+    plain = [r for r in rows if not r.get("baseline")]
+    text = "#### Without a baseline record\n\n" + table(plain)
+    if baseline_ok:
+        based = [r for r in rows if r.get("baseline")]
+        text += f"\n#### With `--baseline` (healthy record at {BASELINE[0]:.0f} rpm)\n\n" + table(based)
+    else:
+        text += "\n`--baseline`: not available in this `gear-rotor-sim calibrate`.\n"
+    done = [r for r in rows if r["verdict"] != "not run"]
+    walls = sorted(r["wall_s"] for r in done if r.get("wall_s") is not None)
+    n_pass = sum(r["verdict"] == "PASS" for r in done)
+    text += f"\n{n_pass} of {len(done)} calibrations run pass all their criteria"
+    if len(done) < len(rows):
+        text += f" ({len(rows) - len(done)} not run)"
+    if walls:
+        med, worst = walls[len(walls) // 2], walls[-1]
+        text += f". Calibration wall time per record: median {med:.0f} s, max {worst:.0f} s"
+    return text + f"; {note}.\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="3 faults at the contact point + 2 healthy records")
@@ -219,6 +257,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
     ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
     ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
+    ap.add_argument(
+        "--from-results",
+        nargs="+",
+        metavar="DIR",
+        help="no calibration: judge the *.calibration.json already in these directories (missing: 'not run')",
+    )
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -228,42 +272,39 @@ def main(argv: list[str] | None = None) -> int:
     if not todo:
         print("no case matches --cases", file=sys.stderr)
         return 2
-    t0 = time.perf_counter()
-    for c in todo:  # records first (fast, deterministic), calibrations in the pool
-        make(c, out, args.duration_s)
-    baseline_ok = has_baseline_option() and not args.no_baseline
-    jobs: list[tuple[Case, str, float, str | None]] = [(c, str(out), args.duration_s, None) for c in todo]
-    if baseline_ok:
-        bases = {}
-        for speed, temp in (BASELINE, BASELINE_ALT):
-            bc = Case(f"baseline_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, 999)
-            bases[(speed, temp)] = make(bc, out, args.duration_s)
-        for c in todo:
-            b = (
-                bases[BASELINE_ALT]
-                if (c.speed_rpm, c.temperature_c) == BASELINE and not c.fault
-                else bases[BASELINE]
-            )
-            jobs.append((c, str(out), args.duration_s, str(b)))
-    if args.jobs > 1:
-        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            rows = list(pool.map(_job, jobs))
+    baseline_ok = not args.no_baseline and has_baseline_option()
+    if args.from_results:
+        dirs = [Path(d) for d in args.from_results]
+        rows = collect(todo, dirs, False) + (collect(todo, dirs, True) if baseline_ok else [])
+        text = render(rows, baseline_ok, f"results from {', '.join(map(str, dirs))}")
     else:
-        rows = [_job(j) for j in jobs]
-    plain = [r for r in rows if not r.get("baseline")]
-    text = "### Without a baseline record\n\n" + table(plain)
-    if baseline_ok:
-        based = [r for r in rows if r.get("baseline")]
-        text += f"\n### With `--baseline` (healthy record at {BASELINE[0]:.0f} rpm)\n\n" + table(based)
-    else:
-        text += "\n`--baseline`: not available in this `gear-rotor-sim calibrate`.\n"
-    walls = sorted(r["wall_s"] for r in rows if r.get("wall_s") is not None)
-    n_pass = sum(r["verdict"] == "PASS" for r in rows)
-    text += (
-        f"\n{n_pass} of {len(rows)} calibrations pass all their criteria. Calibration wall time per record: "
-        f"median {walls[len(walls) // 2]:.0f} s, max {walls[-1]:.0f} s ({args.jobs} job(s), "
-        f"{os.cpu_count()} cores); total {time.perf_counter() - t0:.0f} s.\n"
-    )
+        t0 = time.perf_counter()
+        load0 = os.getloadavg()[0]
+        for c in todo:  # records first (fast, deterministic), calibrations in the pool
+            make(c, out, args.duration_s)
+        jobs: list[tuple[Case, str, float, str | None]] = [(c, str(out), args.duration_s, None) for c in todo]
+        if baseline_ok:
+            bases = {}
+            for speed, temp in (BASELINE, BASELINE_ALT):
+                bc = Case(f"baseline_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, 999)
+                bases[(speed, temp)] = make(bc, out, args.duration_s)
+            for c in todo:
+                b = (
+                    bases[BASELINE_ALT]
+                    if (c.speed_rpm, c.temperature_c) == BASELINE and not c.fault
+                    else bases[BASELINE]
+                )
+                jobs.append((c, str(out), args.duration_s, str(b)))
+        if args.jobs > 1:
+            with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+                rows = list(pool.map(_job, jobs))
+        else:
+            rows = [_job(j) for j in jobs]
+        note = (
+            f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
+            f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
+        )
+        text = render(rows, baseline_ok, note)
     print(text)
     (out / "table.md").write_text(text)
     (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))

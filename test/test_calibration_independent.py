@@ -78,3 +78,26 @@ def test_table_from_a_real_record(tmp_path):
     text = bench.table([row])
     assert "| contact_tooth_wear | `tooth_wear:wear_depth_m=20e-6` | tooth_wear |" in text
     assert "(+10%)" in text and "PASS" in text
+
+
+def test_rerender_from_saved_results(tmp_path, capsys):
+    """--from-results judges saved calibration JSON and marks the missing records 'not run'."""
+    import json
+
+    (tmp_path / "healthy_3000rpm_25C.calibration.json").write_text(
+        json.dumps({"effects": [], "error_before": 3.0, "error_after": 3.0, "wall_s": 60.0})
+    )
+    argv = [
+        "--from-results",
+        str(tmp_path),
+        "--out",
+        str(tmp_path / "r"),
+        "--no-baseline",
+        "--cases",
+        "healthy",
+    ]
+    assert bench.main(argv) == 0
+    text = (tmp_path / "r" / "table.md").read_text()
+    assert "| healthy_3000rpm_25C | `healthy` | none | - | 3 | 3 | 1.00 | yes | - | - | PASS | 60 |" in text
+    assert "| healthy_2000rpm_25C | `healthy` | - |" in text and "not run" in text
+    assert "1 of 1 calibrations run pass all their criteria (4 not run)" in text
