@@ -29,6 +29,9 @@ because the machine is shared.
     alternately (interleaved chunks, so both see the same machine phase), and the ratio; plus the
     integration steps per second of each.
 
+(g) the default model against the full model on the paper gearbox (``reproduce.default_against_full``:
+    the ``speedup_vs_full`` and ``max_rms_dte_error_pct`` keys of ``reproduce --json``).
+
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
 reproduce command imports it (``quick=True`` takes well under a minute).
@@ -46,6 +49,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from gear_rotor_sim.analysis.reproduce import default_against_full
 from gear_rotor_sim.config import load_config
 from gear_rotor_sim.examples import paper_gearbox
 from gear_rotor_sim.simulator import Simulator
@@ -323,6 +327,8 @@ def measure(quick: bool = True) -> dict:
         0.1 if quick else 0.3,
         3 if quick else repeats,
     )
+    # issue 13's reproduce keys: the default model against the full one (paper gearbox)
+    res.update(default_against_full(periods=200 if quick else 400))
     if not quick:
         one = sweep_time(40, 1)
         one["extrapolated_400_s"] = one["wall_s"] * 10.0
@@ -402,6 +408,17 @@ def report(res: dict) -> None:
             f"{d['modes']:3d} modes RTF {d['rtf']:6.2f} | {d['rtf_cpu']:6.2f}  speed-up {r['speedup']:.2f}  "
             f"RMS DTE reduced - full: {err} %  (dt {f['dt_s'] * 1e6:.3f} us)"
         )
+    pts = ", ".join(
+        f"{p['temperature_c']:.0f} C {p['speed_rpm']:.0f} rpm {p['rms_dte_error_pct']:+.3f} % ({p['motion']})"
+        for p in res["accuracy_points"]
+    )
+    print(
+        f"\n(g) default ({res['default_model']} model) against the full model, paper gearbox: speed-up "
+        f"{res['speedup_vs_full']:.3f} (RTF {res['rtf_20000rpm_default_vs_full'][0]:.2f} / "
+        f"{res['rtf_20000rpm_default_vs_full'][1]:.2f}, DTE only, 20000 rpm, interleaved); RMS DTE of the "
+        f"default dt rule against {res['accuracy_reference']}: max {res['max_rms_dte_error_pct']:.3f} % "
+        f"over the non-chaotic points\n  {pts}"
+    )
     print(f"\nload average at end {tuple(round(x, 2) for x in res['load_end'])}")
     print(
         "\nGOALS: steps/s (simulate_steady, DTE only, min over 3000/20000 rpm) "

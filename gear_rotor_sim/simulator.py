@@ -61,6 +61,10 @@ TEMPERATURE_QUANTUM_C = 0.5
 #: and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency are carried by their
 #: static response (residual flexibility); docs/solver.md, "Modal reduction".
 MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
+#: While a speed / temperature ramp runs, the gyroscopic basis and the system are re-built on these
+#: coarser grids (docs/solver.md, "Ramps"); at a constant set-point the fine quanta above apply.
+RAMP_SPEED_QUANTUM_REL = 0.08
+RAMP_TEMPERATURE_QUANTUM_C = 5.0
 MODAL_CUTOFF_MESH_HARMONICS = 4.0
 #: The dt rule uses at least this speed (dt at standstill stays bounded).
 DT_RULE_SPEED_FLOOR_RPM = 60.0
@@ -158,6 +162,11 @@ class Simulator:
         ``steps_per_mesh`` throughout.
     speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
         Ramp rates toward new targets (> 0; ``inf`` jumps).
+    ramp_speed_quantum_rel, ramp_temperature_quantum_c : float
+        Grids of the gyroscopic basis (relative speed step, default 8 %) and of the system rebuild
+        (default 5 C) while a speed or temperature ramp runs; at a constant set-point the fine
+        quanta (1 %, 0.5 C) apply. Chunks still end at every fine quantum (the dt rule decides
+        there). ``SPEED_QUANTUM_REL`` / ``TEMPERATURE_QUANTUM_C`` give the per-quantum rebuild.
     modal_cutoff_hz : "auto", float or None
         Modal reduction with static correction: the modes above the cut-off follow the excitation
         quasi-statically (residual flexibility) and only the retained ones are integrated by the exact
@@ -192,6 +201,8 @@ class Simulator:
         locate_events: bool | None = None,
         contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
         modal_cutoff_hz: float | str | None = "auto",
+        ramp_speed_quantum_rel: float = RAMP_SPEED_QUANTUM_REL,
+        ramp_temperature_quantum_c: float = RAMP_TEMPERATURE_QUANTUM_C,
     ) -> None:
         _check_speed(speed_rpm)
         cut_ok = modal_cutoff_hz is None or modal_cutoff_hz == "auto"
@@ -203,6 +214,14 @@ class Simulator:
                 "frequency > 0 Hz"
             )
         self.modal_cutoff_hz = modal_cutoff_hz
+        for name, q, lo, hi in (
+            ("ramp_speed_quantum_rel", ramp_speed_quantum_rel, SPEED_QUANTUM_REL, 1.0),
+            ("ramp_temperature_quantum_c", ramp_temperature_quantum_c, TEMPERATURE_QUANTUM_C, 25.0),
+        ):
+            if not (isinstance(q, int | float) and lo <= q <= hi):  # also rejects NaN
+                raise ValueError(f"{name}: {q!r} must be in [{lo:g}, {hi:g}]")
+        self.ramp_speed_quantum_rel = float(ramp_speed_quantum_rel)
+        self.ramp_temperature_quantum_c = float(ramp_temperature_quantum_c)
         _check_temperature(temperature_c)
         if not (np.isfinite(output_rate_hz) and 0 < output_rate_hz <= MAX_INTEGRATION_RATE_HZ):
             raise ValueError(
@@ -293,6 +312,22 @@ class Simulator:
     def _tq(temperature_c: float) -> float:
         return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
+    def _tq_now(self, temperature_c: float) -> float:
+        """Quantised temperature of the system in use: the coarse ramp grid while the temperature
+        ramps (a multiple of the fine quantum), the fine one at a constant set-point."""
+        if temperature_c == self._temp.target:
+            return self._tq(temperature_c)
+        q = self.ramp_temperature_quantum_c
+        lo, hi = sorted((self._temp.v0, self._temp.target))  # the grid stays within the ramp
+        return self._tq(float(np.clip(np.round(temperature_c / q) * q, lo, hi)))
+
+    def _speed_quantum(self, speed_rpm: float) -> float:
+        """Relative speed quantum of the basis in use: coarse while the speed ramps."""
+        return SPEED_QUANTUM_REL if speed_rpm == self._speed.target else self.ramp_speed_quantum_rel
+
+    def _sq(self, speed_rpm: float) -> float:
+        return quantize_speed_rpm(speed_rpm, self._speed_quantum(speed_rpm))
+
     def _build(self, tq: float) -> AssembledSystem:
         try:
             return self._builder(self.cfg, tq)
@@ -333,7 +368,7 @@ class Simulator:
             if self._loss_mode:
                 rate = max(rate, self.contact_loss_rate_hz)
             stepper = self._systems[self._tq_cur][1]
-            light = light_mesh_modes(stepper.lin, stepper.basis(quantize_speed_rpm(s0) * 2.0 * np.pi / 60.0))
+            light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
             for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
                 for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
                     rate = max(rate, resonance_rate_hz(fm, light))
@@ -366,13 +401,13 @@ class Simulator:
             return float(cut)
         if len(system.meshes) < 2:
             return None
-        f_mesh = mesh_frequency_hz(system, max(quantize_speed_rpm(speed_rpm), DT_RULE_SPEED_FLOOR_RPM))
+        f_mesh = mesh_frequency_hz(system, max(self._sq(speed_rpm), DT_RULE_SPEED_FLOOR_RPM))
         return max(MODAL_CUTOFF_OUTPUT_FACTOR * self.output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh)
 
     def _activate(self, stepper: NewmarkStepper, st: SolverState, speed_rpm: float) -> None:
         self._stepper = stepper
         stepper.modal_cutoff_hz = self._cutoff_hz(stepper.system, speed_rpm)
-        self._omega_q = quantize_speed_rpm(speed_rpm) * 2.0 * np.pi / 60.0
+        self._omega_q = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
         stepper.set_operating_point(self._omega_q, self.dt, st)
 
     # ------------------------------------------------------------------------------- public API
@@ -514,10 +549,14 @@ class Simulator:
         # stop at the next quantum change of speed (gyroscopic basis) or temperature (system rebuild)
         s_now = float(self._speed.value(t_raw))
         if s_now != self._speed.target:
+            # chunks end at every fine quantum (the dt rule decides there, as without the ramp grid);
+            # the basis changes only where the ramp grid's value does (_run_steps)
             sq = quantize_speed_rpm(s_now)
             up = self._speed.target > s_now
             step = np.sqrt(1.0 + SPEED_QUANTUM_REL)  # half a quantum on the log grid
             level = (sq * step if up else sq / step) if sq > 0 else (0.5 if up else -1.0)
+            # the ramp's end is a crossing too (the fine grid takes over there)
+            level = min(level, self._speed.target) if up else max(level, self._speed.target)
             tt = self._speed.time_to_reach(level) + self._speed.t0 - t_raw
             if np.isfinite(tt):
                 n = min(n, max(1, int(np.ceil(tt / dt))))
@@ -525,6 +564,8 @@ class Simulator:
         if tc != self._temp.target:
             up = self._temp.target > tc
             level = self._tq(tc) + (0.5 if up else -0.5) * TEMPERATURE_QUANTUM_C
+            # the ramp's end is a crossing too (the fine grid takes over there)
+            level = min(level, self._temp.target) if up else max(level, self._temp.target)
             tt = self._temp.time_to_reach(level) + self._temp.t0 - t_raw
             if np.isfinite(tt):
                 n = min(n, max(1, int(np.ceil(tt / dt))))
@@ -547,14 +588,14 @@ class Simulator:
         t_raw = self._raw_time
         # operating point at the chunk start (quantised)
         s_now = float(self._speed.value(t_raw))
-        tq = self._tq(float(self._temp.value(t_raw)))
+        tq = self._tq_now(float(self._temp.value(t_raw)))
         if tq != self._tq_cur:
             x_state = self._state
             _, stepper = self._system(tq)
             self._tq_cur = tq
             self._activate(stepper, x_state, s_now)
         else:
-            oq = quantize_speed_rpm(s_now) * 2.0 * np.pi / 60.0
+            oq = self._sq(s_now) * 2.0 * np.pi / 60.0
             if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:
                 self._activate(self._stepper, self._state, s_now)
         dt = self.dt

@@ -111,10 +111,21 @@ def run_apt_block(cmds: list[str]) -> None:
     assert executable("simulator", ros_environment()).is_file()
 
 
-def run_python_block(text: str) -> None:
-    short = text.replace("advance(0.5)", "advance(0.01)")
-    assert short != text
-    r = _run([sys.executable, "-c", short + "\nassert block2.first_index == block.n_samples\n"], timeout=300)
+#: What each README Python block must leave true (blocks run in order, as one session would).
+PYTHON_CHECKS = (
+    "assert block2.first_index == block.n_samples",
+    "assert list(block.channels) == ['mesh1_dte', 'mesh2_dte'], block.channels",
+)
+
+
+def run_python_blocks(texts: list[str]) -> None:
+    assert len(texts) == len(PYTHON_CHECKS)
+    script = ""
+    for text, check in zip(texts, PYTHON_CHECKS, strict=True):
+        short = text.replace("advance(0.5)", "advance(0.01)")
+        assert short != text
+        script += short + "\n" + check + "\n"
+    r = _run([sys.executable, "-c", script], timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
 
 
@@ -163,7 +174,7 @@ def test_every_readme_command_is_covered():
     assert len(blocks) >= 3
     for name, cmds in blocks:
         assert not _rule(cmds).startswith("unhandled"), f"{name}: {_rule(cmds)}"
-    assert [lang for lang, _ in code_blocks(README)].count("python") == 1
+    assert [lang for lang, _ in code_blocks(README)].count("python") == len(PYTHON_CHECKS)
     forms = table_forms(README)
     assert len(forms) >= 8 and any(f.startswith("gear-rotor-sim recover") for f in forms)
 
@@ -183,11 +194,15 @@ def test_recover_documented_form_is_the_real_one():
 
 
 def test_readme_bash_commands_run(tmp_path):
+    done: set[str] = set()  # a command shown in two documents runs once
     for _name, cmds in _bash_cases():
         if _rule(cmds) == "apt":
             run_apt_block(cmds)
             continue
         for cmd in cmds:
+            if cmd in done:
+                continue
+            done.add(cmd)
             if cmd == "bash scripts/test.sh":
                 run_test_sh(cmd)
             elif cmd.startswith("bash scripts/demo.sh"):
@@ -197,5 +212,4 @@ def test_readme_bash_commands_run(tmp_path):
 
 
 def test_readme_python_example_runs():
-    (text,) = [t for lang, t in code_blocks(README) if lang == "python"]
-    run_python_block(text)
+    run_python_blocks([t for lang, t in code_blocks(README) if lang == "python"])

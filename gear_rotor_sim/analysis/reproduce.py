@@ -213,6 +213,94 @@ def _bench_solver_measure(path: Path | None = None) -> Callable[..., dict] | Non
     return fn if callable(fn) else None
 
 
+#: Reference of ``default_against_full``: steps per mesh period, events located (as
+#: benchmarks/convergence_events.py).
+REFERENCE_STEPS_PER_MESH = 1024
+#: The points ``default_against_full`` checks in the quick and full runs: the Fig 7 speeds and the
+#: Fig 8 speed of the JSON summary at the paper's three temperatures (C, rpm).
+ACCURACY_POINTS = tuple((t, s) for t in (25.0, 125.0, 225.0) for s in (1000.0, 14400.0, 19000.0))
+
+
+def default_against_full(
+    points: tuple[tuple[float, float], ...] = ACCURACY_POINTS,
+    periods: int = 200,
+    transient_s: float = 0.2,
+    settle: int = 50,
+    rtf_chunk_s: float = 0.1,
+    repeats: int = 3,
+) -> dict[str, Any]:
+    """The default model against the full model on the paper gearbox (issue 13's JSON keys).
+
+    ``speedup_vs_full``: ``Simulator.advance`` RTF with the default settings over that with
+    ``modal_cutoff_hz=None`` (the full model), DTE only at 20000 rpm, 20 kHz output, the two advanced
+    alternately in ``rtf_chunk_s`` chunks after a warm-up (median of ``repeats``; same run).
+    ``max_rms_dte_error_pct``: per point, the reference (full model, ``REFERENCE_STEPS_PER_MESH``
+    located steps per mesh period, fixed) runs ``transient_s`` from the static equilibrium, then
+    ``periods`` recorded mesh periods; the default dt rule runs from the reference's state
+    (``settle`` periods, then ``periods``); the error of its RMS DTE against the reference's, largest
+    over the points whose reference motion is not chaotic (the RMS of a chaotic window is a
+    statistic, not a converged number; chaotic points are listed but not counted).
+
+    On the paper gearbox (one mesh) the default *is* the full model (``modal_cutoff_hz="auto"``
+    reduces multi-mesh rigs only; ``default_model`` says which), so the speed-up is 1 up to timing
+    noise and the error is that of the default dt rule alone.
+    """
+    from gear_rotor_sim.analysis.classify import classify_motion
+    from gear_rotor_sim.examples import paper_gearbox
+    from gear_rotor_sim.simulator import Simulator
+    from gear_rotor_sim.solver.newmark import mesh_frequency_hz
+    from gear_rotor_sim.solver.steady import simulate_steady
+    from gear_rotor_sim.system import GearRotorSystem
+
+    cfg = paper_gearbox()
+    sims = {
+        "default": Simulator(cfg, 20000.0, 25.0, 20000.0, channels=["dte"]),
+        "full": Simulator(cfg, 20000.0, 25.0, 20000.0, channels=["dte"], modal_cutoff_hz=None),
+    }
+    walls: dict[str, list[float]] = {k: [] for k in sims}
+    for sim in sims.values():
+        sim.advance(0.05)  # warm-up: kernels loaded, basis built
+    for _ in range(repeats):
+        for k, sim in sims.items():
+            t0 = time.perf_counter()
+            sim.advance(rtf_chunk_s)
+            walls[k].append(time.perf_counter() - t0)
+    rtf = {k: rtf_chunk_s / float(np.median(w)) for k, w in walls.items()}
+    mp = sims["default"]._stepper.map
+    reduced = mp is not None and mp.resid is not None
+    rows = []
+    for temp, rpm in points:
+        system = GearRotorSystem.from_config(cfg, temp)
+        ref_kw: dict[str, Any] = {"locate_events": True, "contact_loss_rate_hz": None}
+        n_tr = max(1, int(transient_s * mesh_frequency_hz(system, rpm)))
+        spm = REFERENCE_STEPS_PER_MESH
+        _, st0 = simulate_steady(system, rpm, 0, n_tr, spm, ("dte",), **ref_kw)
+        res_ref, _ = simulate_steady(system, rpm, 0, periods, spm, ("dte",), st0, "step", **ref_kw)
+        x_ref = res_ref.channel("dte")
+        motion = classify_motion(x_ref[spm - 1 :: spm], scale=float(np.ptp(x_ref))).label
+        res_def, _ = simulate_steady(system, rpm, settle, periods, 32, ("dte",), st0, "step")
+        rms_ref = float(np.sqrt(np.mean(x_ref**2)))
+        rms_def = float(np.sqrt(np.mean(res_def.channel("dte") ** 2)))
+        rows.append(
+            {
+                "temperature_c": temp,
+                "speed_rpm": rpm,
+                "motion": motion,
+                "rms_dte_error_pct": 100.0 * (rms_def / rms_ref - 1.0),
+                "default_steps_per_mesh": int(res_def.steps_per_mesh),
+            }
+        )
+    counted = [abs(r["rms_dte_error_pct"]) for r in rows if r["motion"] != "chaotic"]
+    return {
+        "speedup_vs_full": rtf["default"] / rtf["full"],
+        "max_rms_dte_error_pct": max(counted) if counted else float("nan"),
+        "default_model": "reduced" if reduced else "full",
+        "rtf_20000rpm_default_vs_full": [rtf["default"], rtf["full"]],
+        "accuracy_points": rows,
+        "accuracy_reference": f"full model, {REFERENCE_STEPS_PER_MESH} located steps per mesh period",
+    }
+
+
 def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) -> dict[str, Any]:
     """Steps per second and real-time factors of the solver (25 C, A#, the default dt rule).
 
@@ -238,6 +326,8 @@ def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) ->
                 if {"steps_per_s", "rtf_3000rpm", "rtf_20000rpm"} <= set(got):
                     got.setdefault("method", f"benchmarks/bench_solver.py measure(quick={quick})")
                     got["source"] = "benchmarks/bench_solver.py"
+                    if not {"speedup_vs_full", "max_rms_dte_error_pct"} <= set(got):
+                        got.update(default_against_full(periods=200 if quick else 400))
                     return got
             except Exception as exc:
                 msg = f"reproduce: bench_solver.measure failed ({exc!r}); timing Simulator.advance"
@@ -274,6 +364,8 @@ def benchmark(duration_s: float, quick: bool = True, use_script: bool = True) ->
         "DTE channel at 10 kHz, the default dt rule"
     )
     out["source"] = "reproduce.benchmark"
+    # the smallest check (tests): one periodic point, short windows
+    out.update(default_against_full(((25.0, 1000.0),), periods=40, transient_s=0.3, settle=10, repeats=1))
     return out
 
 
@@ -566,6 +658,23 @@ def merge_windows(windows: list[tuple[float, float]], gap_rpm: float) -> list[tu
     return [(float(a), float(b)) for a, b in out]
 
 
+def _fine_band(
+    case: Case,
+    lo: float,
+    hi: float,
+    settings: RunSettings,
+    step_rpm: float,
+    margin_rpm: float,
+    gap_rpm: float,
+) -> tuple[tuple[float, float], list[tuple[float, float]], np.ndarray]:
+    speeds = np.arange(max(lo - margin_rpm, 500.0), hi + margin_rpm + step_rpm / 2, step_rpm)
+    res = run_bifurcation(case, speeds, settings, workers=1, progress=False)
+    fine = res.chaotic_windows(merge_gap=1)
+    joined = [w for w in merge_windows(fine, gap_rpm) if w[1] >= lo and w[0] <= hi]
+    band = max(joined, key=lambda w: w[1] - w[0]) if joined else (float("nan"), float("nan"))
+    return band, fine, speeds
+
+
 def refine_main_band(
     case: Case,
     coarse_windows: list[tuple[float, float]],
@@ -573,6 +682,7 @@ def refine_main_band(
     step_rpm: float = 25.0,
     margin_rpm: float = 750.0,
     gap_rpm: float = 250.0,
+    check_steps_rpm: tuple[float, ...] = (20.0, 50.0),
 ) -> dict[str, Any]:
     """The Fig 6a main chaotic band with its edges resolved to ``step_rpm``.
 
@@ -580,23 +690,25 @@ def refine_main_band(
     11000 rpm) is re-swept from ``margin_rpm`` below to ``margin_rpm`` above on a ``step_rpm`` grid,
     in one segment (speeds increasing, each run continued from the previous one, as the coarse
     sweep does inside a segment). The band is the widest joined fine window overlapping the coarse
-    band; its edges are accurate to one ``step_rpm``.
+    band; its edges are accurate to one ``step_rpm``. The sweep is repeated on the grids of
+    ``check_steps_rpm`` (other speeds, other continuation paths) to show how far the edges move.
 
     Returns
     -------
     dict
         ``band_rpm`` [low, high], ``coarse_band_rpm``, ``windows_rpm`` (fine, unjoined),
-        ``step_rpm``, ``gap_rpm``, ``grid_rpm`` [first, last], ``wall_time_s``.
+        ``step_rpm``, ``gap_rpm``, ``grid_rpm`` [first, last], ``other_grids`` (``step_rpm``,
+        ``band_rpm`` per check grid), ``wall_time_s``.
     """
     lo, hi = main_band(merge_windows(coarse_windows, gap_rpm))
     if not np.isfinite(lo):
         return {"band_rpm": [float("nan"), float("nan")], "coarse_band_rpm": [lo, hi]}
-    speeds = np.arange(max(lo - margin_rpm, 500.0), hi + margin_rpm + step_rpm / 2, step_rpm)
     t0 = time.perf_counter()
-    res = run_bifurcation(case, speeds, settings, workers=1, progress=False)
-    fine = res.chaotic_windows(merge_gap=1)
-    joined = [w for w in merge_windows(fine, gap_rpm) if w[1] >= lo and w[0] <= hi]
-    band = max(joined, key=lambda w: w[1] - w[0]) if joined else (float("nan"), float("nan"))
+    band, fine, speeds = _fine_band(case, lo, hi, settings, step_rpm, margin_rpm, gap_rpm)
+    others = []
+    for step in check_steps_rpm:
+        b, _, _ = _fine_band(case, lo, hi, settings, step, margin_rpm, gap_rpm)
+        others.append({"step_rpm": step, "band_rpm": [b[0], b[1]]})
     return {
         "band_rpm": [band[0], band[1]],
         "coarse_band_rpm": [lo, hi],
@@ -604,6 +716,7 @@ def refine_main_band(
         "step_rpm": step_rpm,
         "gap_rpm": gap_rpm,
         "grid_rpm": [float(speeds[0]), float(speeds[-1])],
+        "other_grids": others,
         "wall_time_s": time.perf_counter() - t0,
     }
 
@@ -927,6 +1040,9 @@ def summary_json(r: dict[str, Any]) -> dict[str, Any]:
             "steps_per_s": b["steps_per_s"],
             "rtf_3000rpm": b["rtf_3000rpm"],
             "rtf_20000rpm": b["rtf_20000rpm"],
+            "speedup_vs_full": b.get("speedup_vs_full"),
+            "max_rms_dte_error_pct": b.get("max_rms_dte_error_pct"),
+            "default_model": b.get("default_model"),
         },
     }
 

@@ -362,7 +362,28 @@ def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out:
             "Sec 4.3 text gives 13100-14600 rpm for the same figure). Fine windows: "
             f"{_fmt_windows([tuple(w) for w in fine['windows_rpm']])}."
         )
+        others = fine.get("other_grids", [])
+        if others:
+            add("")
+            add(
+                "The same re-sweep on other grids (other speeds, other continuation paths): "
+                + "; ".join(
+                    f"{o['step_rpm']:g} rpm: {o['band_rpm'][0]:.0f}-{o['band_rpm'][1]:.0f} "
+                    f"({o['band_rpm'][0] - plo:+.0f} / {o['band_rpm'][1] - phi:+.0f})"
+                    for o in others
+                )
+                + "."
+            )
         add("")
+    add("Motion sequence with increasing speed (as published; runs shorter than 3 grid points absorbed):")
+    add("")
+    for key in p["fig6"]:
+        if key == "points":
+            continue
+        seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in p["fig6"][key]["sequence"])
+        add(f"- {PANEL_TITLES.get(key, key)}: as published: {seq}.")
+        add(f"  Paper: {PAPER_SEQUENCE.get(key, '-')}.")
+    add("")
     add(f"![as-published Fig 6](figures/{PUBLISHED_CONFIG}/fig6_bifurcation.png)")
     add("")
     add("### Fig 7: RMS total force of bearing 2 (A#)")

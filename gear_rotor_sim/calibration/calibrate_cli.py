@@ -24,6 +24,10 @@ EXIT_INVALID = 2
 EXIT_NON_FINITE = 3
 
 
+def _fmt(v: object) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "measurement",
@@ -40,6 +44,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="sidecar/mapping file (default: same stem .yaml); 'cwru' for the CWRU .mat mapping",
     )
     parser.add_argument("--gearbox", help="override the sidecar's gearbox (config name or path)")
+    parser.add_argument(
+        "--baseline",
+        metavar="HEALTHY",
+        help="healthy record of the same machine (any operating point): its baseline (mesh and bearing "
+        "stiffness/damping scales, carrier model-form tolerance) is calibrated first and MEASUREMENT "
+        "is diagnosed against the updated model",
+    )
     parser.add_argument(
         "--allow-gaps",
         action="store_true",
@@ -110,13 +121,33 @@ def run(args: argparse.Namespace) -> int:
             settings = ResidualSettings()
             if args.tolerance is not None:
                 settings.tolerance = args.tolerance
-            cal = Calibrator(m, settings=settings, steps_per_mesh=args.steps_per_mesh, log=log)
+            ref: dict = {}
+            if args.baseline:
+                href = load_measurement(Path(args.baseline), None, nan_policy)
+                if args.duration is not None:
+                    href = href.segment(0.0, args.duration)
+                if args.gearbox:
+                    href.gearbox = args.gearbox
+                log(f"baseline: calibrating on {args.baseline}")
+                rb = Calibrator(
+                    href,
+                    settings=ResidualSettings(**vars(settings)),
+                    fit_settings=FitSettings(max_effects=0),
+                    steps_per_mesh=args.steps_per_mesh,
+                    log=log,
+                ).run()
+                ref = {
+                    "baseline": rb.baseline_effects,
+                    "baseline_source": str(args.baseline),
+                    "carrier_tolerance": rb.model_form.get("carrier_tolerance"),
+                }
+            cal = Calibrator(m, settings=settings, steps_per_mesh=args.steps_per_mesh, log=log, **ref)
         if args.tolerance is not None:
             cal.settings.tolerance = args.tolerance
         if args.max_effects is not None:
             cal.fit = FitSettings(max_effects=args.max_effects)
         result = cal.run()
-    except (ValueError, KeyError) as exc:
+    except (MeasurementError, ValueError, KeyError) as exc:
         print(f"gear-rotor-sim calibrate: {exc}", file=sys.stderr)
         return EXIT_INVALID
     if not (math.isfinite(result.error_before) and math.isfinite(result.error_after)):
@@ -136,11 +167,16 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(result_json(result)))
     else:
         print(f"{path.name}: {result.conclusion}")
+        print(f"baseline ({result.baseline_source}):")
+        for b in result.baseline_updates:
+            if b.effect is not None:
+                ps = ", ".join(f"{k}={_fmt(v)}" for k, v in b.parameters.items())
+                print(f"  {b.label}: {ps}")
         print(
             "error (normalised RMS residual, 1 = noise level): "
             f"{result.error_before:.4g} -> {result.error_after:.4g}"
         )
         for e in result.effects:
-            ps = ", ".join(f"{k}={v:.4g}" for k, v in e.parameters.items())
+            ps = ", ".join(f"{k}={_fmt(v)}" for k, v in e.parameters.items())
             print(f"  {e.label}: {ps} (confidence {e.confidence:.3f})")
     return 0

@@ -26,6 +26,13 @@ Procedure (``docs/calibration.md``):
    acceptance re-checked on a full simulation of the updated model. Repeat until the error is at the
    noise level, nothing qualifies, or ``max_effects`` are in.
 
+Baseline and consistency (issue 11, ``docs/calibration.md`` Sec. 8): the baseline parameter sets
+(mesh and bearing stiffness/damping scales) compete with the effects in every round but update the
+machine (``baseline_updates``) instead of being reported; with a reference record they are fitted
+there and held. A temperature offset is first screened on the static content (channel means). A
+candidate at a parameter bound or contradicting the static content is refused (``not_claimed``);
+a damaged tooth must improve its own wheel's order comb.
+
 Confidence of an accepted effect: ``P(effect) * P(best vs runner-up)``, both BIC posterior
 probabilities ``1 / (1 + exp(-Delta/2))`` (Kass & Raftery 1995), so an effect that barely beats an
 alternative explanation is reported with a low confidence. Parameter uncertainty: from the
@@ -63,6 +70,7 @@ from gear_rotor_sim.faults import (
     BearingStiffnessDamping,
     Effect,
     GearEccentricity,
+    GearMisalignment,
     MassUnbalance,
     MeshStiffnessDamping,
     ShaftMisalignment,
@@ -98,6 +106,8 @@ class CandidateFit:
     uncertainty: dict[str, float]
     delta_bic: float = 0.0
     explained: float = 0.0
+    feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
+    comb_explained: float = 0.0  # share of the order-comb excess explained (tooth damage)
 
     @property
     def name(self) -> str:
@@ -110,7 +120,7 @@ class FoundEffect:
 
     name: str
     label: str
-    parameters: dict[str, float]
+    parameters: dict[str, Any]  # fitted values (+ location keys such as wheel)
     uncertainty: dict[str, float]
     confidence: float
     delta_bic: float
@@ -242,6 +252,15 @@ class Calibrator:
         Geometry for the bearing-defect candidates.
     log : callable, optional
         Progress messages.
+    baseline : list of Effect, optional
+        Baseline parameter sets fixed from a healthy reference record (``--baseline``); default:
+        fitted on this record, competing with the effects.
+    baseline_source : str, optional
+        Reported ``baseline.source`` (the reference file).
+    carrier_tolerance : float, optional
+        Model-form tolerance of the mesh carriers from the reference record.
+    baseline_sets : list of Effect, optional
+        Baseline sets offered (default :func:`baseline_candidates` of the rig).
     """
 
     def __init__(
@@ -259,6 +278,7 @@ class Calibrator:
         baseline: Sequence[Effect] | None = None,
         baseline_source: str | None = None,
         carrier_tolerance: float | None = None,
+        baseline_sets: Sequence[Effect] | None = None,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -294,6 +314,8 @@ class Calibrator:
         self.fit_baseline = baseline is None
         self.baseline_source = baseline_source or ("measurement" if baseline is None else "given")
         self.fixed_carrier_tolerance = carrier_tolerance
+        #: baseline parameter sets offered (default: the library's for the rig)
+        self.baseline_sets = list(baseline_candidates(cfg) if baseline_sets is None else baseline_sets)
         #: effects found before the baseline stage (temperature from the static content)
         self.pre_effects: list[Effect] = []
 
@@ -381,7 +403,7 @@ class Calibrator:
         return FoundEffect(
             effect_name(eff),
             eff.label,
-            eff.parameters(),
+            reported_parameters(eff),
             {"offset_c": sig},
             float(_logistic(dbic / 2)),
             float(dbic),
@@ -607,9 +629,11 @@ class Calibrator:
                 out = out.combo(shifted[key], wt)
             return out
 
+        # tooth index: best over two depths (at one fixed depth the envelope penalty of an overshoot
+        # can favour a neighbouring tooth)
         best = (np.inf, 0)
         for i in range(z):
-            v = self._chi2(cur.combo(sig(0.45, i), 1.0))
+            v = min(self._chi2(cur.combo(sig(d, i), 1.0)) for d in (0.2, 0.45))
             if v < best[0]:
                 best = (v, i)
         i_best = best[1]
@@ -631,9 +655,8 @@ class Calibrator:
         )
         sd = self._curvature_sigma(obj, d_best, val, 0.02, 2, 0.0)
         eff = dataclasses.replace(e, tooth=i_best + 1, depth=d_best)
-        return CandidateFit(
-            eff, self.cmp.score(cur.combo(sig(d_best, i_best), 1.0)), None, 2, {"depth": sd, "tooth": 0.0}
-        )
+        feats = cur.combo(sig(d_best, i_best), 1.0)
+        return CandidateFit(eff, self.cmp.score(feats), None, 2, {"depth": sd, "tooth": 0.0}, feats=feats)
 
     def _fit_candidate(self, e: Effect, cur: ModelFeatures) -> CandidateFit | None:
         op = self.m.operating_point
@@ -641,6 +664,19 @@ class Calibrator:
             return self._fit_phase_amplitude(e, cur)
         if isinstance(e, ToothWear):
             return self._fit_scalar_amplitude(e, cur, None, "wear_depth_m", e.specs[0].upper)
+        if isinstance(e, GearMisalignment):
+            # |cos(theta + phi)| is not a cos/sin basis in phi: the phase on a 4-point grid
+            fits = [
+                self._fit_scalar_amplitude(
+                    e.with_parameters(phase_rad=ph), cur, None, "angle_rad", e.specs[0].upper
+                )
+                for ph in (-0.75 * math.pi, -0.25 * math.pi, 0.25 * math.pi, 0.75 * math.pi)
+            ]
+            fits = [f for f in fits if f is not None]
+            if not fits:
+                return None
+            best = min(fits, key=lambda f: f.score.balanced_chi2)
+            return dataclasses.replace(best, k=2)
         if isinstance(e, BearingDefect):
             return self._fit_scalar_amplitude(e, cur, None, "force_n", e.specs[0].upper)
         if isinstance(e, TemperatureOffset):
@@ -660,9 +696,65 @@ class Calibrator:
             return self._fit_tooth(e, cur)
         return None
 
-    def _signature_present(self, fit: CandidateFit, cur: Score) -> bool:
-        """Bearing defects must improve their own characteristic envelope lines significantly."""
+    def _tooth_comb_check(self, fit: CandidateFit, cur: Score) -> bool:
+        """A damaged tooth must improve the order comb of its own wheel's shaft significantly and
+        more than that of the mating wheel (the comb tells the wheel; a tooth candidate that gains
+        on the envelope or on the other shaft explains something else)."""
         e = fit.effect
+        if fit.feats is None or "order" not in self.cmp.families or len(self.cmp.shafts) < 2:
+            return True
+        cfg = self.runner.cfg
+        mesh = cfg.meshes[e.mesh - 1]
+        node0 = cfg.gear(mesh.pinion if e.wheel == "pinion" else mesh.gear).node0
+        shaft_name = cfg.shafts[cfg.shaft_of_node(node0)].name
+        names = [sh.name for sh in self.cmp.shafts]
+        if shaft_name not in names:
+            return True
+        own = names.index(shaft_name)
+        before = self.cmp.comb_chi2(self._cur_feat, cur)
+        gain = before - self.cmp.comb_chi2(fit.feats, fit.score)
+        ok = gain[own] > self.fit.bic_threshold + math.log(self.n_total)
+        # the mating wheel's tooth candidate of this round: the true wheel explains its own comb and
+        # what leaks into the other shaft's synchronous average; the wrong one cannot do both
+        rival = next(
+            (
+                f
+                for f in getattr(self, "_round_fits", [])
+                if isinstance(f.effect, ToothDamage)
+                and f.effect.mesh == e.mesh
+                and f.effect.wheel != e.wheel
+                and f.feats is not None
+            ),
+            None,
+        )
+        rival_gain = (
+            float(np.sum(before - self.cmp.comb_chi2(rival.feats, rival.score)))
+            if rival is not None
+            else -np.inf
+        )
+        if ok and float(np.sum(gain)) < rival_gain:
+            ok = False
+        # share of the comb's own excess it explains (its relative signature), used next to the
+        # share of the whole excess: model-form misfit of the carriers must not mask a comb that
+        # the tooth explains
+        excess = float(np.sum(before)) - self.cmp.comb_count()
+        fit.comb_explained = float(np.sum(gain)) / excess if excess > 0 else 0.0
+        if not ok:
+            self.notes.append(
+                f"{e.label}: not claimed, comb gain on its wheel's shaft {gain[own]:.3g}, on all shafts "
+                f"{float(np.sum(gain)):.3g} (the other wheel's tooth: {rival_gain:.3g})"
+            )
+        return bool(ok)
+
+    def _signature_present(self, fit: CandidateFit, cur: Score) -> bool:
+        """Bearing defects must improve their own characteristic envelope lines significantly; a damaged
+        tooth its own wheel's order comb."""
+        e = fit.effect
+        if isinstance(e, ToothDamage):
+            key = ("tooth", e.label, id(cur))
+            if key not in self._sig_checked:
+                self._sig_checked[key] = self._tooth_comb_check(fit, cur)
+            return self._sig_checked[key]
         if not isinstance(e, BearingDefect) or "envelope" not in self.cmp.families:
             return True
         key = ("signature", e.label, id(cur))
@@ -834,7 +926,7 @@ class Calibrator:
         if not self.fit_baseline:
             return updates
         N = score.n_total
-        for b in baseline_candidates(self.runner.cfg):
+        for b in self.baseline_sets:
             if score.error <= self.fit.stop_error:
                 break
             cur = self._features(self.base_raw)
@@ -1025,7 +1117,7 @@ class Calibrator:
             used = {a_.label for a_ in (*accepted, *self.baseline)} | rejected_labels
             pool = list(self.candidates)
             if self.fit_baseline:
-                pool += baseline_candidates(self.runner.cfg)
+                pool += self.baseline_sets
             for e in pool:
                 if e.label in used or not e.applicable(self.runner.cfg):
                     continue
@@ -1064,11 +1156,15 @@ class Calibrator:
             table.sort(key=lambda r: -r.get("delta_bic", -np.inf))
             rounds.append(table)
             fits.sort(key=lambda f: -f.delta_bic)
+            self._round_fits = fits
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
             chosen = None
             for f in fits[:3]:
-                if f.delta_bic <= self.fit.bic_threshold or f.explained < self.fit.min_explained:
+                share = max(f.explained, f.comb_explained if f in admissible else 0.0)
+                if f.delta_bic <= self.fit.bic_threshold:
                     break
+                if share < self.fit.min_explained:
+                    continue
                 if f not in admissible:
                     self.notes.append(
                         f"{f.effect.label}: not claimed, its characteristic lines do not carry the "
@@ -1107,7 +1203,7 @@ class Calibrator:
                         FoundEffect(
                             ver.name,
                             ver.effect.label,
-                            ver.effect.parameters(),
+                            reported_parameters(ver.effect),
                             ver.uncertainty,
                             float(0.5 * _logistic(dbic / 2) * p_sep),
                             float(dbic),
@@ -1121,7 +1217,11 @@ class Calibrator:
                     rejected_labels.add(ver.effect.label)
                     self.notes.append(f"{ver.effect.label}: not claimed ({verdict})")
                     continue
-                if dbic > self.fit.bic_threshold and expl >= self.fit.min_explained and p_sep >= 0.5:
+                if (
+                    dbic > self.fit.bic_threshold
+                    and max(expl, f.comb_explained) >= self.fit.min_explained
+                    and p_sep >= 0.5
+                ):
                     ver.delta_bic, ver.explained = dbic, expl
                     chosen = (ver, runner_up)
                     break
@@ -1186,7 +1286,7 @@ class Calibrator:
                 FoundEffect(
                     ver.name,
                     ver.effect.label,
-                    ver.effect.parameters(),
+                    reported_parameters(ver.effect),
                     ver.uncertainty,
                     float(p_model * p_sep),
                     float(ver.delta_bic),
@@ -1239,6 +1339,18 @@ class Calibrator:
             c: time_and_spectrum_errors(self.m.data[:, i], model[:, i], fs, max(lag, 1))
             for i, c in enumerate(self.cmp.names)
         }
+
+
+def reported_parameters(effect: Effect) -> dict[str, Any]:
+    """Fitted parameters plus the location that tells a finding apart: the wheel of a damaged tooth,
+    the tilted member of a gear misalignment."""
+    out: dict[str, Any] = dict(effect.parameters())
+    if isinstance(effect, ToothDamage):
+        out["wheel"] = effect.wheel
+        out["tooth"] = int(effect.tooth)
+    elif isinstance(effect, GearMisalignment):
+        out["member"] = effect.member
+    return out
 
 
 def _logistic(x: float) -> float:

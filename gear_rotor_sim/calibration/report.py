@@ -154,7 +154,14 @@ def write_report(
         lines.append("")
     else:
         lines += ["No effect claimed.", ""]
-    lines += ["## Errors per family", "", "| family | before | after |", "|---|---|---|"]
+    lines += [f"## Baseline (source: {result.baseline_source})", ""]
+    for b in result.baseline_updates:
+        ps = ", ".join(f"{k} = {_fmt(v)}" for k, v in b.parameters.items())
+        lines.append(f"- `{b.label}`: {ps}")
+    for e in result.not_claimed:
+        ps = ", ".join(f"{k} = {_fmt(v)}" for k, v in e.parameters.items())
+        lines.append(f"- not claimed ({e.status}): `{e.label}`: {ps}")
+    lines += ["", "## Errors per family", "", "| family | before | after |", "|---|---|---|"]
     for f in result.score_before.chi2:
         b = math.sqrt(result.score_before.chi2[f] / result.score_before.n[f])
         a = math.sqrt(result.score_after.chi2[f] / result.score_after.n[f])

@@ -769,6 +769,25 @@ class Comparison:
             tol = np.where(self.carriers(s), ct, tol)
         return self.v_order[c][s] + (tol * common) ** 2
 
+    def comb_chi2(self, feats: ModelFeatures, score: Score) -> np.ndarray:
+        """chi^2 of the non-carrier orders (order comb and sidebands) per shaft, all channels, with the
+        score's gains and time shift."""
+        out = np.zeros(len(self.shafts))
+        G = np.column_stack([score.gains, score.slopes]) if score.slopes.size else score.gains
+        feats = self.apply_shift(feats, score.tau)
+        for c in range(self.nc):
+            for s in range(len(self.shafts)):
+                k = ~self.carriers(s)
+                mg = self.order_gain(G, c, s) * feats.order[c][s]
+                r = self.d_order[c][s] - mg
+                out[s] += 2.0 * float(np.sum((np.abs(r) ** 2 / self.order_sigma2(c, s, mg))[k]))
+        return out
+
+    def comb_count(self) -> int:
+        """Number of real comb features (non-carrier orders, 2 per complex coefficient)."""
+        n = sum(int(np.count_nonzero(~self.carriers(s))) for s in range(len(self.shafts)))
+        return 2 * n * self.nc
+
     def carrier_mismatch(self, feats: ModelFeatures, score: Score) -> float:
         """Median relative misfit ``|d - g m| / |g m|`` of the significant mesh carriers (``nan`` if none)."""
         rel: list[np.ndarray] = []

@@ -20,7 +20,15 @@ from gear_rotor_sim.faults.bearing import (
     load_zone,
     outer_race_defect,
 )
-from gear_rotor_sim.faults.gear import GearEccentricity, ToothDamage, ToothWear, tooth_share, wear_profile
+from gear_rotor_sim.faults.gear import (
+    GearEccentricity,
+    GearMisalignment,
+    ToothDamage,
+    ToothWear,
+    edge_loaded_stiffness_factor,
+    tooth_share,
+    wear_profile,
+)
 from gear_rotor_sim.faults.library import (
     BASELINE_NAMES,
     LIBRARY_NAMES,
@@ -42,6 +50,7 @@ __all__ = [
     "BearingStiffnessDamping",
     "Effect",
     "GearEccentricity",
+    "GearMisalignment",
     "MassUnbalance",
     "MeshStiffnessDamping",
     "ParameterSpec",
@@ -52,6 +61,7 @@ __all__ = [
     "ball_defect",
     "baseline_candidates",
     "candidate_effects",
+    "edge_loaded_stiffness_factor",
     "effect_name",
     "inner_race_defect",
     "load_zone",

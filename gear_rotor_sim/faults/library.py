@@ -9,7 +9,7 @@ from gear_rotor_sim.config import RigConfig
 from gear_rotor_sim.faults.base import Effect
 from gear_rotor_sim.faults.baseline import BearingStiffnessDamping, MeshStiffnessDamping
 from gear_rotor_sim.faults.bearing import BEARING_6206, BearingDefect, BearingGeometry
-from gear_rotor_sim.faults.gear import GearEccentricity, ToothDamage, ToothWear
+from gear_rotor_sim.faults.gear import GearEccentricity, GearMisalignment, ToothDamage, ToothWear
 from gear_rotor_sim.faults.operating import TemperatureOffset
 from gear_rotor_sim.faults.shaft import MassUnbalance, ShaftMisalignment
 
@@ -30,6 +30,7 @@ LIBRARY_NAMES: tuple[str, ...] = (
     "shaft_misalignment",
     "tooth_damage",
     "tooth_wear",
+    "gear_misalignment",
     "temperature_offset",
     "outer_race_defect",
     "inner_race_defect",
@@ -77,6 +78,7 @@ def candidate_effects(
     out += [ShaftMisalignment(node=n) for n in misalignment_nodes]
     if has_mesh:
         out += [ToothDamage(wheel="pinion"), ToothDamage(wheel="gear"), ToothWear()]
+        out += [GearMisalignment(member="pinion"), GearMisalignment(member="gear")]
     out.append(TemperatureOffset())
     for kind in ("outer", "inner", "ball"):
         out += [BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry) for b in bearings]
@@ -109,6 +111,7 @@ EFFECT_TYPES: dict[str, Any] = {
     "shaft_misalignment": ShaftMisalignment,
     "tooth_damage": ToothDamage,
     "tooth_wear": ToothWear,
+    "gear_misalignment": GearMisalignment,
     "temperature_offset": TemperatureOffset,
     "outer_race_defect": functools.partial(BearingDefect, kind="outer"),
     "inner_race_defect": functools.partial(BearingDefect, kind="inner"),

@@ -70,11 +70,12 @@ def aligned(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def quantize_speed_rpm(speed_rpm: float) -> float:
-    """Speed at which the gyroscopic matrix is evaluated: a log grid of ratio 1 + SPEED_QUANTUM_REL."""
+def quantize_speed_rpm(speed_rpm: float, quantum_rel: float | None = None) -> float:
+    """Speed at which the gyroscopic matrix is evaluated: a log grid of ratio 1 + ``quantum_rel``
+    (default ``SPEED_QUANTUM_REL``)."""
     if speed_rpm < SPEED_ZERO_RPM:
         return 0.0
-    step = np.log1p(SPEED_QUANTUM_REL)
+    step = np.log1p(SPEED_QUANTUM_REL if quantum_rel is None else quantum_rel)
     return float(np.exp(np.round(np.log(speed_rpm) / step) * step))
 
 
@@ -430,6 +431,8 @@ class StepMap:
     nmode: int
     # modal reduction: static response of the dropped modes to the column amplitudes, (nstate, m)
     resid: np.ndarray | None = None
+    # (Re Phi^T, Im Phi^T, R^T) for ``kernels.modal_to_physical``, built on first use
+    xrec: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
 
 def reduce_basis(basis: Basis, cutoff_hz: float) -> tuple[Basis, np.ndarray]:
@@ -1338,12 +1341,19 @@ class NewmarkStepper:
         assert mp is not None
         if mp.dense:
             return self.zr.copy()
+        if mp.xrec is None:  # contiguous transposes: the compiled loop runs along rows
+            phi_t = mp.basis.phi.T
+            nstate = mp.basis.phi.shape[0]
+            rest = np.zeros((0, nstate)) if mp.resid is None else mp.resid.T
+            mp.xrec = tuple(np.ascontiguousarray(a) for a in (phi_t.real, phi_t.imag, rest))
+        phr, phi, rest = mp.xrec
         nk = mp.basis.lam.size
-        z = self.zr[:nk] + 1j * self.zi[:nk]
-        x = (mp.basis.phi @ z).real
-        if mp.resid is not None and st is not None:
-            x += mp.resid @ self._beta_of(st)  # the dropped modes' static part
-        return x
+        beta = self._beta_of(st) if (mp.resid is not None and st is not None) else np.zeros(0)
+        if beta.size == 0:
+            rest = rest[:0]
+        # plain compiled loops, not BLAS: a threaded BLAS matrix-vector product here cost 40x the
+        # chunk on a loaded machine (docs/solver.md, "Cost")
+        return kernels.modal_to_physical(phr, phi, self.zr[:nk], self.zi[:nk], rest, beta)
 
     def initial_outputs(self, st: SolverState) -> np.ndarray:
         """Channel values at the state ``st`` (for filter history before the start)."""
