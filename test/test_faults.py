@@ -18,7 +18,7 @@ import yaml
 from gear_rotor_sim import datasets
 from gear_rotor_sim.config import load_config
 from gear_rotor_sim.faults.library import EFFECT_TYPES
-from gear_rotor_sim.faults.spec import FaultError, load_faults, parse_faults
+from gear_rotor_sim.faults.spec import FaultError, fault_types, load_faults, parse_faults
 from gear_rotor_sim.faults.timed import TimedEffect
 from gear_rotor_sim.recording.dataset import generate, load_sweep
 from gear_rotor_sim.recording.record_cli import RunParameters, record_run
@@ -29,8 +29,8 @@ from gear_rotor_sim.solver.newmark import make_context
 
 FS = 20000.0
 DURATION_S = 0.05
-#: Every library type; ``record`` is tested with RECORDED (the types the node test does not switch
-#: to, plus the issue's example), the node test with the others.
+#: One entry of every injectable type (``fault_types()``; checked below): each goes through ``record``
+#: and through ``dataset`` (a fault-axis grid), each compared with the library effect in the Simulator.
 ONE_OF_EACH = [
     {"type": "tooth_damage", "wheel": "gear", "tooth": 5, "depth": 0.3},
     {"type": "tooth_wear", "wear_depth_m": 1.0e-5},
@@ -41,6 +41,9 @@ ONE_OF_EACH = [
     {"type": "outer_race_defect", "bearing": 2, "force_n": 800.0},
     {"type": "inner_race_defect", "bearing": 3, "force_n": 800.0},
     {"type": "ball_defect", "bearing": 1, "force_n": 800.0},
+    {"type": "gear_misalignment", "member": "pinion", "angle_rad": 1.0e-3, "phase_rad": 0.3},
+    {"type": "mesh_stiffness_damping", "stiffness_scale": 1.3, "damping_scale": 0.7},
+    {"type": "bearing_stiffness_damping", "stiffness_scale": 0.6, "damping_scale": 1.5},
 ]
 
 
@@ -53,9 +56,34 @@ def _library_effect(entry: dict):
     return EFFECT_TYPES[entry["type"]](**{k: v for k, v in entry.items() if k not in ("type", "onset_s")})
 
 
+_REFERENCES: dict = {}
+
+
 def _reference(cfg, entry: dict, channels) -> np.ndarray:
-    sim = Simulator(cfg, 3000.0, 25.0, FS, channels=list(channels), effects=[_library_effect(entry)])
-    return sim.advance(DURATION_S).data
+    """The Simulator run with the library effect itself (the calibration's path), cached per entry."""
+    key = (json.dumps(entry, sort_keys=True), tuple(channels))
+    if key not in _REFERENCES:
+        effects = [] if entry["type"] == "healthy" else [_library_effect(entry)]
+        sim = Simulator(cfg, 3000.0, 25.0, FS, channels=list(channels), effects=effects)
+        _REFERENCES[key] = sim.advance(DURATION_S).data
+    return _REFERENCES[key]
+
+
+def _assert_equals_reference(cfg, entry: dict, run) -> None:
+    """``run`` (a recording read back) equals the reference sample for sample, relative to the
+    magnitude of each channel; every recorded channel of the fault must differ from the healthy
+    run somewhere (else the comparison could not see the fault)."""
+    ref = _reference(cfg, entry, run.channels)
+    n = min(ref.shape[0], run.data.shape[0])
+    assert n == round(DURATION_S * FS), (entry["type"], n)
+    scale = np.maximum(np.abs(ref[:n]).max(axis=0), 1e-300)
+    err = (np.abs(run.data[:n] - ref[:n]).max(axis=0) / scale).max()
+    assert err <= 1e-12, (entry["type"], err)
+    if entry["type"] == "healthy":
+        return
+    healthy = _reference(cfg, {"type": "healthy"}, run.channels)[:n]
+    change = (np.abs(ref[:n] - healthy).max(axis=0) / scale).max()
+    assert change >= 1e-6, (entry["type"], "the fault does not change the signal", change)
 
 
 # ------------------------------------------------------------------------------------ description
@@ -163,52 +191,58 @@ def _read_truth(path: Path) -> list:
     return msgs, meta
 
 
-RECORDED = ("tooth_damage", "gear_eccentricity", "shaft_misalignment", "inner_race_defect", "ball_defect")
+def test_one_of_each_covers_every_injectable_type() -> None:
+    assert sorted(e["type"] for e in ONE_OF_EACH) == sorted(fault_types())
 
 
-def test_record_fault_types_equal_library_effect_and_truth_equals_request(tmp_path: Path, cfg) -> None:
-    for i, entry in enumerate(e for e in ONE_OF_EACH if e["type"] in RECORDED):
-        out = tmp_path / f"run{i}.mcap"
-        params = RunParameters(3000.0, 25.0, DURATION_S, streams=("dte", "bearing_forces"), faults=(entry,))
-        record_run(params, out)
-        run = datasets.read_run(out)
-        ref = _reference(cfg, entry, run.channels)
-        n = min(ref.shape[0], run.data.shape[0])
-        assert n == round(DURATION_S * FS)
-        scale = np.maximum(np.abs(ref[:n]).max(axis=0), 1e-300)
-        err = (np.abs(run.data[:n] - ref[:n]).max(axis=0) / scale).max()
-        assert err <= 1e-12, (entry["type"], err)
-        msgs, meta = _read_truth(out)
-        want = [f.as_dict() for f in parse_faults([entry])]
-        assert [json.loads(f.spec_json) for f in msgs[0].faults] == want
-        assert msgs[0].faults[0].type == entry["type"] and msgs[0].faults[0].active
-        assert json.loads(meta["gear_rotor_sim.faults"]["faults"]) == want
-        assert [f.as_dict() for f in run.faults] == want
+@pytest.mark.parametrize("entry", ONE_OF_EACH, ids=[e["type"] for e in ONE_OF_EACH])
+def test_record_fault_type_equals_library_effect_and_truth_equals_request(
+    tmp_path: Path, cfg, entry: dict
+) -> None:
+    out = tmp_path / "run.mcap"
+    params = RunParameters(3000.0, 25.0, DURATION_S, streams=("dte", "bearing_forces"), faults=(entry,))
+    record_run(params, out)
+    run = datasets.read_run(out)
+    _assert_equals_reference(cfg, entry, run)
+    msgs, meta = _read_truth(out)
+    want = [f.as_dict() for f in parse_faults([entry])]
+    assert [json.loads(f.spec_json) for f in msgs[0].faults] == want
+    assert msgs[0].faults[0].type == entry["type"] and msgs[0].faults[0].active
+    assert json.loads(meta["gear_rotor_sim.faults"]["faults"]) == want
+    assert [f.as_dict() for f in run.faults] == want
 
 
-def test_dataset_fault_axis_truth_in_manifest_and_resumable(tmp_path: Path, cfg) -> None:
+def _fault_sweep(tmp_path: Path, fault_lists: list) -> Path:
     sweep = {
         "base": {"duration_s": DURATION_S, "temperature_c": 25.0, "streams": ["dte", "bearing_forces"]},
-        "grid": {"speed_rpm": [3000.0], "faults": [[], [ONE_OF_EACH[6]], [ONE_OF_EACH[0]]]},
+        "grid": {"speed_rpm": [3000.0], "faults": fault_lists},
     }
     f = tmp_path / "sweep.yaml"
     f.write_text(yaml.safe_dump(sweep))
-    out = tmp_path / "ds"
-    rep = generate(load_sweep(f), out, workers=1)
-    assert len(rep.done) == 3
+    return f
+
+
+def _check_dataset(cfg, out: Path, fault_lists: list) -> None:
+    """The manifest's truth equals the requests in grid order; each run's truth equals its manifest
+    entry and its signal the library effect in the Simulator."""
     manifest = json.loads((out / "manifest.json").read_text())
     assert [e["faults"] for e in manifest["runs"]] == [
-        [f.as_dict() for f in parse_faults(fl)] for fl in sweep["grid"]["faults"]
+        [f.as_dict() for f in parse_faults(fl)] for fl in fault_lists
     ]
-    for entry in manifest["runs"]:
+    for entry, requested in zip(manifest["runs"], fault_lists, strict=True):
         run = datasets.read_run(out / entry["file"])
         assert [f.as_dict() for f in run.faults] == entry["faults"]
-        if entry["faults"]:
-            ref = _reference(cfg, entry["faults"][0], run.channels)
-            n = min(ref.shape[0], run.data.shape[0])
-            scale = np.maximum(np.abs(ref[:n]).max(axis=0), 1e-300)
-            assert (np.abs(run.data[:n] - ref[:n]).max(axis=0) / scale).max() <= 1e-12
-    assert len(generate(load_sweep(f), out, workers=1).skipped) == 3  # resumable
+        _assert_equals_reference(cfg, requested[0] if requested else {"type": "healthy"}, run)
+
+
+def test_dataset_fault_axis_every_type_truth_in_manifest_and_resumable(tmp_path: Path, cfg) -> None:
+    fault_lists = [[], *[[e] for e in ONE_OF_EACH]]
+    f = _fault_sweep(tmp_path, fault_lists)
+    out = tmp_path / "ds"
+    rep = generate(load_sweep(f), out, workers=1)
+    assert len(rep.done) == len(fault_lists)
+    _check_dataset(cfg, out, fault_lists)
+    assert len(generate(load_sweep(f), out, workers=1).skipped) == len(fault_lists)  # resumable
 
 
 # ------------------------------------------------------------------------------- housing and loader
