@@ -36,15 +36,20 @@ DOMAIN_ID = random.randint(1, 200)
 STARTUP_TIMEOUT_S = 180.0
 STEP_S = 0.15  # simulated time each fault list is in force
 INITIAL = {"type": "tooth_damage", "wheel": "gear", "tooth": 5, "depth": 0.3}
-#: One type per mechanism of the effect protocol (stiffness factor: INITIAL; transmission error and
-#: rotating force; rotating force; rebuilt system and transmission error; impulse forces). The other
-#: types go through ``record`` in test_faults.py (every type is covered by one of the two paths, each
-#: compared with the library effect in the Simulator); one node costs ~3 s of basis per switch.
+#: Every other injectable type (INITIAL is tooth_damage; checked against ``fault_types()`` below),
+#: each in force for STEP_S of simulated time and compared with the library effect in the Simulator.
 REQUESTS = [
     {"type": "pinion_eccentricity", "eccentricity_m": 2.0e-5},
     {"type": "mass_unbalance", "node": 5, "unbalance_kg_m": 2.0e-4},
     {"type": "tooth_wear", "wear_depth_m": 1.0e-5},
     {"type": "outer_race_defect", "bearing": 2, "force_n": 800.0},
+    {"type": "gear_eccentricity", "eccentricity_m": 3.0e-5, "phase_rad": 0.5},
+    {"type": "shaft_misalignment", "node": 1, "offset_m": 1.0e-4},
+    {"type": "inner_race_defect", "bearing": 3, "force_n": 800.0},
+    {"type": "ball_defect", "bearing": 1, "force_n": 800.0},
+    {"type": "gear_misalignment", "member": "pinion", "angle_rad": 1.0e-3, "phase_rad": 0.3},
+    {"type": "mesh_stiffness_damping", "stiffness_scale": 1.3, "damping_scale": 0.7},
+    {"type": "bearing_stiffness_damping", "stiffness_scale": 0.6, "damping_scale": 1.5},
 ]
 BAD = [
     ("[{type: crack, tooth: 5}]", "faults[0].type"),
@@ -186,6 +191,12 @@ def _applications(states) -> list[tuple[float, list[dict]]]:
         if not out or out[-1][1] != specs:
             out.append((t, specs))
     return out
+
+
+def test_requests_cover_every_injectable_type() -> None:
+    from gear_rotor_sim.faults.spec import fault_types
+
+    assert sorted(e["type"] for e in [INITIAL, *REQUESTS]) == sorted(fault_types())
 
 
 def test_bad_requests_refused_with_field_named_and_node_streams_on(node_run: dict) -> None:
