@@ -1517,19 +1517,8 @@ class NewmarkStepper:
         )  # fmt: skip
         self.n_substeps += nsub
         self.n_mesh_fail += nfail
-        if status != kernels.STATUS_OK:
-            raise SimulationDiverged(
-                float(t[1 + step]),
-                float(speed[1 + step]) * 60.0 / (2.0 * np.pi),
-                system.temperature_c,
-                "non-finite state" if status == kernels.STATUS_NONFINITE else f"|DTE| above {bound:g} m",
-            )
-        if all_in_gemm:
-            ch = out
-        else:  # only DTE / mesh force channels
-            ch = np.empty((n, len(self.specs)))
-            for i, sp in enumerate(self.specs):
-                ch[:, i] = dte[:, 0] if sp.kind == "dte" else fm[:, 0]
+        _check_chunk_status(status, float(t[1 + step]), float(speed[1 + step]), system.temperature_c, bound)
+        ch = out if all_in_gemm else _mesh_channels(self.specs, dte, fm, single_mesh=True)
         if n:
             st.delta = dte[-1].copy()
             st.delta_dot = dted[-1].copy()
@@ -1597,19 +1586,8 @@ class NewmarkStepper:
             self.fuse_meshes,
         )
         self.n_mesh_fail += nfail
-        if status != kernels.STATUS_OK:
-            raise SimulationDiverged(
-                float(t[1 + step]),
-                float(speed[1 + step]) * 60.0 / (2.0 * np.pi),
-                system.temperature_c,
-                "non-finite state" if status == kernels.STATUS_NONFINITE else f"|DTE| above {bound:g} m",
-            )
-        if all_in_gemm:
-            ch = out
-        else:  # only DTE / mesh force channels
-            ch = np.empty((n, len(self.specs)))
-            for i, sp in enumerate(self.specs):
-                ch[:, i] = dte[:, sp.mesh] if sp.kind == "dte" else fm[:, sp.mesh]
+        _check_chunk_status(status, float(t[1 + step]), float(speed[1 + step]), system.temperature_c, bound)
+        ch = out if all_in_gemm else _mesh_channels(self.specs, dte, fm, single_mesh=False)
         ampl = ampl_k[1:]
         if n:
             st.delta = dte[-1].copy()
@@ -1640,6 +1618,30 @@ class SimulationDiverged(RuntimeError):
     def __reduce__(self) -> tuple[type, tuple[float, float, float, str]]:
         """Rebuild from the constructor arguments (picklable across a process pool)."""
         return (type(self), (self.time_s, self.speed_rpm, self.temperature_c, self.reason))
+
+
+def _check_chunk_status(
+    status: int, t_s: float, speed_rad_s: float, temperature_c: float, bound: float
+) -> None:
+    """Raise :class:`SimulationDiverged` for a kernel status other than OK."""
+    if status != kernels.STATUS_OK:
+        raise SimulationDiverged(
+            t_s,
+            speed_rad_s * 60.0 / (2.0 * np.pi),
+            temperature_c,
+            "non-finite state" if status == kernels.STATUS_NONFINITE else f"|DTE| above {bound:g} m",
+        )
+
+
+def _mesh_channels(
+    specs: list[ChannelSpec], dte: np.ndarray, fm: np.ndarray, single_mesh: bool
+) -> np.ndarray:
+    """The DTE / mesh-force channels of a chunk (the kernels' per-mesh columns, in ``specs`` order)."""
+    ch = np.empty((dte.shape[0], len(specs)))
+    for i, sp in enumerate(specs):
+        col = 0 if single_mesh else sp.mesh
+        ch[:, i] = dte[:, col] if sp.kind == "dte" else fm[:, col]
+    return ch
 
 
 def check_steps_per_mesh(steps_per_mesh: int) -> None:
