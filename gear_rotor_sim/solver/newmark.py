@@ -1454,14 +1454,7 @@ class NewmarkStepper:
             elif s.kind == "force":
                 ch[:, i] = fm[:, s.mesh]
         if n:
-            st.delta = dte[-1].copy()
-            st.delta_dot = dted[-1].copy()
-            st.force = fm[-1].copy()
-            st.coef = coef[-1].copy()
-            st.ampl = ampl[-1].copy()
-            st.contact = self.contact.copy()
-            st.angle = float(angle[-2])
-            st.time = float(t[-2])
+            _carry_chunk_end(st, dte, dted, fm, coef, ampl, self.contact, float(angle[-2]), float(t[-2]))
         st.x = self.physical_x(st)
         return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
@@ -1590,14 +1583,7 @@ class NewmarkStepper:
         ch = out if all_in_gemm else _mesh_channels(self.specs, dte, fm, single_mesh=False)
         ampl = ampl_k[1:]
         if n:
-            st.delta = dte[-1].copy()
-            st.delta_dot = dted[-1].copy()
-            st.force = fm[-1].copy()
-            st.coef = coef[-1].copy()
-            st.ampl = ampl[-1].copy()
-            st.contact = self.contact.copy()
-            st.angle = float(angle[-2])
-            st.time = float(t[-2])
+            _carry_chunk_end(st, dte, dted, fm, coef, ampl, self.contact, float(angle[-2]), float(t[-2]))
         st.x = self.physical_x(st)
         return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
@@ -1618,6 +1604,28 @@ class SimulationDiverged(RuntimeError):
     def __reduce__(self) -> tuple[type, tuple[float, float, float, str]]:
         """Rebuild from the constructor arguments (picklable across a process pool)."""
         return (type(self), (self.time_s, self.speed_rpm, self.temperature_c, self.reason))
+
+
+def _carry_chunk_end(
+    st: SolverState,
+    dte: np.ndarray,
+    dted: np.ndarray,
+    fm: np.ndarray,
+    coef: np.ndarray,
+    ampl: np.ndarray,
+    contact: np.ndarray,
+    angle: float,
+    time: float,
+) -> None:
+    """Carry the mesh state of a chunk's last step into ``st`` (every chunk path)."""
+    st.delta = dte[-1].copy()
+    st.delta_dot = dted[-1].copy()
+    st.force = fm[-1].copy()
+    st.coef = coef[-1].copy()
+    st.ampl = ampl[-1].copy()
+    st.contact = contact.copy()
+    st.angle = angle
+    st.time = time
 
 
 def _check_chunk_status(
