@@ -50,7 +50,9 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.comb_families import broadband_gain, comb_gain_by_family
 from gear_rotor_sim.calibration.measurement import Measurement
+from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.residual import (
     Comparison,
     HousingSensor,
@@ -93,6 +95,8 @@ class FitSettings:
     max_effects: int = 3
     refine_steps: int = 3
     line_prominence: float = 4.0  # bearing defects: a characteristic envelope line >= 6 dB above the floor
+    #: tooth damage: comb gain outside the best sideband family >= this share of that family's gain
+    min_family_share: float = 0.25
 
 
 @dataclass
@@ -261,6 +265,9 @@ class Calibrator:
         Model-form tolerance of the mesh carriers from the reference record.
     baseline_sets : list of Effect, optional
         Baseline sets offered (default :func:`baseline_candidates` of the rig).
+    model_window : bool
+        Simulate whole hunting periods of the mesh instead of the record length
+        (:func:`~gear_rotor_sim.calibration.model_window.model_window_samples`; default True).
     """
 
     def __init__(
@@ -279,6 +286,7 @@ class Calibrator:
         baseline_source: str | None = None,
         carrier_tolerance: float | None = None,
         baseline_sets: Sequence[Effect] | None = None,
+        model_window: bool = True,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -298,6 +306,11 @@ class Calibrator:
             warmup_s,
             steps_per_mesh,
             dict(sensors or {}),
+            n_model=model_window_samples(
+                cfg, measurement.operating_point.speed_rpm, measurement.sample_rate_hz, measurement.n_samples
+            )
+            if model_window
+            else 0,
         )
         cfg = self.runner.cfg
         observed = sorted(
@@ -734,6 +747,24 @@ class Calibrator:
         )
         if ok and float(np.sum(gain)) < rival_gain:
             ok = False
+        if ok:
+            # a damaged tooth raises the whole comb; one sideband family alone is a response component
+            # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
+            fams = comb_gain_by_family(self.cmp, (self._cur_feat, cur), (fit.feats, fit.score), own)
+            rest, j0 = broadband_gain(fams)
+            self.log(
+                f"  {e.label}: comb gain by sideband family { ({j: round(v) for j, v in fams.items()}) }"
+            )
+            if fams and (
+                rest <= self.fit.bic_threshold + math.log(self.n_total)
+                or rest < self.fit.min_family_share * fams[j0]
+            ):
+                self.notes.append(
+                    f"{e.label}: not claimed, its comb gain is one sideband family (m z +- {j0}: "
+                    f"{fams[j0]:.3g}; all other families {rest:.3g}): a component at one frequency, not "
+                    "the broad comb of a damaged tooth"
+                )
+                ok = False
         # share of the comb's own excess it explains (its relative signature), used next to the
         # share of the whole excess: model-form misfit of the carriers must not mask a comb that
         # the tooth explains
@@ -1336,7 +1367,7 @@ class Calibrator:
         fs = self.m.sample_rate_hz
         lag = int(0.5 * fs / self.cmp.mesh_hz) if self.cmp.mesh_hz else int(0.002 * fs)
         return {
-            c: time_and_spectrum_errors(self.m.data[:, i], model[:, i], fs, max(lag, 1))
+            c: time_and_spectrum_errors(self.m.data[: model.shape[0], i], model[:, i], fs, max(lag, 1))
             for i, c in enumerate(self.cmp.names)
         }
 
@@ -1371,7 +1402,7 @@ def model_residual_spectra(
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Amplitude spectra of the time residual before and after, for the report."""
     fs = result.measurement.sample_rate_hz
-    y = result.measurement.data[:, channel]
+    y = result.measurement.data[: result.model_before.shape[0], channel]  # the model's window
     lag = int(0.5 * fs / result.comparison.mesh_hz) if result.comparison.mesh_hz else 1
     return {
         "before": residual_spectrum(

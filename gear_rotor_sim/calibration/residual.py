@@ -135,6 +135,10 @@ class ModelRunner:
         Model channel names; ``bearing<k>_housing_a<d>`` is the housing sensor of bearing k.
     sensors : dict
         ``channel -> HousingSensor`` for housing channels.
+    n_model : int
+        Samples simulated and returned per run (0: ``n_samples``). The calibration simulates whole
+        hunting periods of the mesh instead of the record length (``model_window.py``): every
+        feature is an average over the record and the response is periodic in that period.
     """
 
     cfg: object
@@ -147,6 +151,7 @@ class ModelRunner:
     steps_per_mesh: int = 32
     sensors: dict[str, HousingSensor] = field(default_factory=dict)
     n_runs: int = 0
+    n_model: int = 0
 
     def __post_init__(self) -> None:
         cfg = self.cfg
@@ -158,6 +163,8 @@ class ModelRunner:
             )
         self.cfg = cfg
         self._key = _cfg_key(cfg)
+        if not 0 < self.n_model <= self.n_samples:
+            self.n_model = int(self.n_samples)
 
     @property
     def start_time(self) -> float:
@@ -172,13 +179,13 @@ class ModelRunner:
         return list(dict.fromkeys(out))
 
     def force_signals(self, effects: Sequence[object] = ()) -> np.ndarray:
-        """Simulated raw channels (bearing forces for housing channels), shape (n, n_sim_channels)."""
+        """Simulated raw channels (bearing forces for housing channels), shape (n_model, n_sim_channels)."""
         key = "|".join(
             [
                 self._key,
                 repr(self.operating_point),
                 str(self.sample_rate_hz),
-                str(self.n_samples),
+                str(self.n_model),
                 f"{self.start_time:.9f}",
                 ",".join(self.sim_channels()),
                 str(self.steps_per_mesh),
@@ -207,10 +214,11 @@ class ModelRunner:
             system_builder=cached_system,
         )
         i0 = round(self.start_time * self.sample_rate_hz)
-        block = sim.advance((i0 + self.n_samples) / self.sample_rate_hz + 0.5 / self.sample_rate_hz)
-        data = np.ascontiguousarray(block.data[i0 : i0 + self.n_samples])
-        if data.shape[0] != self.n_samples:
-            raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {self.n_samples}")
+        n = self.n_model
+        block = sim.advance((i0 + n) / self.sample_rate_hz + 0.5 / self.sample_rate_hz)
+        data = np.ascontiguousarray(block.data[i0 : i0 + n])
+        if data.shape[0] != n:
+            raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n}")
         self.n_runs += 1
         _CACHE[key] = data
         if len(_CACHE) > _CACHE_MAX:
@@ -591,7 +599,12 @@ class Comparison:
             return
         if "static" not in self.families:
             self.families = (*self.families, "static")
-        self.d_static = self.y.mean(axis=0)
+        # order 0 over whole hunting periods (the model's window, model_window.py): a partial cycle
+        # at the record's end biases the mean by its share of the once-per-cycle content
+        from gear_rotor_sim.calibration.model_window import whole_periods_samples
+
+        n_whole = whole_periods_samples(self.runner.cfg, self.speed_hz * 60.0, self.fs, self.y.shape[0])
+        self.d_static = self.y[:n_whole].mean(axis=0)
         n_per = max(round(self.fs / self.speed_hz), 1) if self.speed_hz else int(0.1 * self.fs)
         n_blk = max(self.y.shape[0] // n_per, 1)
         if n_blk >= 2:
@@ -622,7 +635,8 @@ class Comparison:
     def set_baseline(self, model: np.ndarray) -> None:
         """Fix the time shift and the envelope bands from the healthy model."""
         if "envelope" in self.families:
-            resid = self.y - model * self._quick_gains(model)
+            y = self.y[: model.shape[0]]  # the model may cover whole hunting periods only
+            resid = y - model * self._quick_gains(model)
             self.bands = []
             for c in range(self.nc):
                 if self.s.envelope_band_hz is not None:
@@ -657,7 +671,7 @@ class Comparison:
                     )
 
     def _quick_gains(self, model: np.ndarray) -> np.ndarray:
-        num = np.sum(self.y * model, axis=0)
+        num = np.sum(self.y[: model.shape[0]] * model, axis=0)
         den = np.sum(model * model, axis=0)
         g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
         return np.clip(g, *self.s.gain_bounds) if self.s.fit_gain else np.ones(self.nc)
