@@ -101,6 +101,34 @@ def test_recording_names_its_rig_and_per_mesh_channels(tmp_path: Path) -> None:
     assert any("from the recording's metadata" in s for s in m.issues), m.issues
 
 
+def test_dataset_runs_on_the_two_stage_rig_load_with_their_rig(tmp_path: Path) -> None:
+    """``dataset`` on the two-stage example with a fault on mesh 2 as a grid axis: every run's file
+    loads with its rig and all four mesh channels, and its ground truth names mesh 2."""
+    from gear_rotor_sim.recording.dataset import generate, parse_sweep
+
+    sweep = parse_sweep(
+        {
+            "base": {"duration_s": 0.02, "config": TWO_STAGE, "streams": ["dte"]},
+            "grid": {
+                "speed_rpm": [3000],
+                "temperature_c": [25],
+                "faults": [
+                    [],
+                    [{"type": "tooth_damage", "mesh": 2, "wheel": "gear", "tooth": 5, "depth": 0.3}],
+                ],
+            },
+        }
+    )
+    generate(sweep, tmp_path, workers=1)
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert len(manifest["runs"]) == 2
+    for entry in manifest["runs"]:
+        m = load_measurement(tmp_path / entry["file"])
+        assert m.gearbox == TWO_STAGE
+        assert m.model_channels == ["mesh1_dte", "mesh1_force", "mesh2_dte", "mesh2_force"]
+    assert [f.get("mesh") for e in manifest["runs"] for f in e["faults"]] == [2]
+
+
 def test_candidates_cover_every_mesh_and_wheel() -> None:
     labels = {e.label for e in candidate_effects(load_config(TWO_STAGE))}
     for suffix in ("", "@mesh2"):
