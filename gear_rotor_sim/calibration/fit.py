@@ -58,6 +58,7 @@ from gear_rotor_sim.calibration.residual import (
     ModelRunner,
     ResidualSettings,
     Score,
+    add_direct_bearing_forces,
     housing_source,
     residual_spectrum,
     time_and_spectrum_errors,
@@ -1462,6 +1463,7 @@ def synthetic_measurement(
     n = round(duration_s * sample_rate_hz)
     block = sim.advance((i0 + n + 0.5) / sample_rate_hz)
     data = block.data[i0 : i0 + n].copy()
+    add_direct_bearing_forces(data, list(channels), effects, data_cfg, temp, speed, sample_rate_hz, i0)
     rng = np.random.default_rng(seed)
     gains = 1.0 + gain_error * rng.choice([-1.0, 1.0], size=data.shape[1])
     data = data * gains + noise_rms * data.std(axis=0) * rng.standard_normal(data.shape)
