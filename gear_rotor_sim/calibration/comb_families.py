@@ -9,7 +9,10 @@ the independent lumped gearbox at 8000 rpm, healthy: a 667 Hz component = 5 x th
 at pinion orders 5, 29 +- 5, 58 +- 5 with SNR^2 up to 9e4, stationary over the record). It survives
 the synchronous average like a shaft-locked fault, but it raises *one* family of sidebands
 ``m z +- j0``. A tooth candidate whose fitted comb gains on that family alone explains the rattle
-component, not a tooth.
+component, not a tooth; and one whose gain sits in two families explains two such components (a
+1x eccentricity raises the family j = 1, a locked rattle component its own). A damaged tooth is
+claimed only if its comb gain is significant in at least three of the six families
+(:func:`significant_families`).
 
 The family of a shaft order ``o`` of a wheel with ``z`` teeth is ``j = min(o mod z, z - o mod z)``,
 its distance to the nearest mesh harmonic (``j = o`` for the low orders); carriers (``j = 0``) are
@@ -57,9 +60,11 @@ def comb_gain_by_family(
     return {int(j): float(np.sum(gain[fam == j])) for j in np.unique(fam) if j > 0}
 
 
-def broadband_gain(families: dict[int, float]) -> tuple[float, int]:
-    """Comb gain outside the single best family, and that family (``(0.0, 0)`` if none)."""
+def significant_families(families: dict[int, float], floor: float, share: float) -> list[int]:
+    """Families whose gain exceeds ``floor`` (the significance threshold of one feature group) and
+    ``share`` times the largest family gain, best first."""
     if not families:
-        return 0.0, 0
-    j0 = max(families, key=lambda j: families[j])
-    return float(sum(v for j, v in families.items() if j != j0)), int(j0)
+        return []
+    best = max(families.values())
+    keep = [j for j, v in families.items() if v > floor and v >= share * best]
+    return sorted(keep, key=lambda j: -families[j])

@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gear_rotor_sim.calibration.comb_families import broadband_gain, comb_gain_by_family
+from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.residual import (
@@ -96,8 +96,10 @@ class FitSettings:
     max_effects: int = 3
     refine_steps: int = 3
     line_prominence: float = 4.0  # bearing defects: a characteristic envelope line >= 6 dB above the floor
-    #: tooth damage: comb gain outside the best sideband family >= this share of that family's gain
-    min_family_share: float = 0.25
+    #: tooth damage: its comb gain must be significant (beyond the BIC threshold and at least
+    #: ``min_family_share`` of the best family's gain) in ``min_comb_families`` sideband families
+    min_family_share: float = 0.02
+    min_comb_families: int = 3
 
 
 @dataclass
@@ -756,18 +758,17 @@ class Calibrator:
             # a damaged tooth raises the whole comb; one sideband family alone is a response component
             # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
             fams = comb_gain_by_family(self.cmp, (self._cur_feat, cur), (fit.feats, fit.score), own)
-            rest, j0 = broadband_gain(fams)
-            self.log(
-                f"  {e.label}: comb gain by sideband family { ({j: round(v) for j, v in fams.items()}) }"
-            )
-            if fams and (
-                rest <= self.fit.bic_threshold + math.log(self.n_total)
-                or rest < self.fit.min_family_share * fams[j0]
-            ):
+            thr = self.fit.bic_threshold + math.log(self.n_total)
+            sig = significant_families(fams, thr, self.fit.min_family_share)
+            by_family = {j: round(v) for j, v in fams.items()}
+            self.log(f"  {e.label}: comb gain by sideband family {by_family}")
+            if fams and len(sig) < self.fit.min_comb_families:
+                shown = ", ".join(f"m z +- {j}: {fams[j]:.3g}" for j in sorted(fams, key=lambda j: -fams[j]))
                 self.notes.append(
-                    f"{e.label}: not claimed, its comb gain is one sideband family (m z +- {j0}: "
-                    f"{fams[j0]:.3g}; all other families {rest:.3g}): a component at one frequency, not "
-                    "the broad comb of a damaged tooth"
+                    f"{e.label}: not claimed, its comb gain is significant in {len(sig)} sideband "
+                    f"famil{'y' if len(sig) == 1 else 'ies'} only ({shown}): components at one or two "
+                    "frequencies (a rattle subharmonic, a 1x eccentricity), not the broad comb of a damaged "
+                    "tooth"
                 )
                 ok = False
         # share of the comb's own excess it explains (its relative signature), used next to the
@@ -1195,7 +1196,14 @@ class Calibrator:
             self._round_fits = fits
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
             chosen = None
-            for f in fits[:3]:
+            # the three best candidates are examined; one whose own signature is absent (a tooth comb
+            # in one sideband family, bearing lines below the threshold) does not take a place
+            examined = 0
+            for f in fits:
+                if examined >= 3:
+                    break
+                if f in admissible:
+                    examined += 1
                 share = max(f.explained, f.comb_explained if f in admissible else 0.0)
                 if f.delta_bic <= self.fit.bic_threshold:
                     break
