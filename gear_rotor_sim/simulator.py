@@ -66,6 +66,14 @@ MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
 RAMP_SPEED_QUANTUM_REL = 0.08
 RAMP_TEMPERATURE_QUANTUM_C = 5.0
 MODAL_CUTOFF_MESH_HARMONICS = 4.0
+
+
+def auto_modal_cutoff_hz(f_mesh_hz: float, output_rate_hz: float) -> float:
+    """The ``modal_cutoff_hz="auto"`` cut-off: the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR`` output
+    rates and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the (highest) mesh frequency, Hz."""
+    return max(MODAL_CUTOFF_OUTPUT_FACTOR * output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh_hz)
+
+
 #: The dt rule uses at least this speed (dt at standstill stays bounded).
 DT_RULE_SPEED_FLOOR_RPM = 60.0
 #: Highest accepted integration rate; an output rate above it is refused.
@@ -170,16 +178,21 @@ class Simulator:
     modal_cutoff_hz : "auto", float or None
         Modal reduction with static correction: the modes above the cut-off follow the excitation
         quasi-statically (residual flexibility) and only the retained ones are integrated by the exact
-        map (docs/solver.md, "Modal reduction"). "auto": on multi-mesh rigs, the larger of 2 output
-        rates and 4 harmonics of the highest mesh frequency; single-mesh rigs stay full. None: full
-        model. A number: that cut-off (Hz) on any rig (a single-mesh rig then runs the multi-mesh
-        kernel, events not located).
+        map (docs/solver.md, "Modal reduction"). "auto" (default): the larger of 2 output rates and 4
+        harmonics of the highest mesh frequency (40 kHz at 20 kHz output up to 10 kHz mesh
+        frequency). None: full model. A number: that cut-off (Hz).
     effects : sequence of Effect
     locate_events : bool, optional
         Split integration steps at the mesh-table jumps and contact changes inside them (second-order
         accurate at those events, docs/solver.md); False takes them at the step instants (faster).
         Default: the dt rule (``rule_locate_events``): on while the teeth separate, and from
         ``LOCATE_EVENTS_FROM_STEPS`` steps per mesh period.
+    exact_modal_map : bool, optional
+        The exact modal propagator instead of Newmark's map (no period error at any mode;
+        docs/solver.md, "Exact modal map"). Default (None): the dt rule's choice, the exact map where
+        the rule's resonance part (a lightly damped mode near a low mesh harmonic) would raise the
+        integration rate, Newmark's map elsewhere. True / False: always / never (False gives the
+        resonance part's higher rate instead).
     system_builder : callable, optional
         ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
     """
@@ -201,6 +214,7 @@ class Simulator:
         locate_events: bool | None = None,
         contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
         modal_cutoff_hz: float | str | None = "auto",
+        exact_modal_map: bool | None = None,
         ramp_speed_quantum_rel: float = RAMP_SPEED_QUANTUM_REL,
         ramp_temperature_quantum_c: float = RAMP_TEMPERATURE_QUANTUM_C,
     ) -> None:
@@ -214,6 +228,12 @@ class Simulator:
                 "frequency > 0 Hz"
             )
         self.modal_cutoff_hz = modal_cutoff_hz
+        if exact_modal_map is not None and not isinstance(exact_modal_map, bool | np.bool_):
+            raise ValueError(
+                f"exact_modal_map: {exact_modal_map!r} must be True, False or None (the dt rule)"
+            )
+        self._exact_opt = exact_modal_map
+        self._exact = bool(exact_modal_map)  # the map in use (the dt rule's choice with None)
         for name, q, lo, hi in (
             ("ramp_speed_quantum_rel", ramp_speed_quantum_rel, SPEED_QUANTUM_REL, 1.0),
             ("ramp_temperature_quantum_c", ramp_temperature_quantum_c, TEMPERATURE_QUANTUM_C, 25.0),
@@ -367,11 +387,17 @@ class Simulator:
         if self.contact_loss_rate_hz is not None:  # the dt rule's contact-loss and resonance parts
             if self._loss_mode:
                 rate = max(rate, self.contact_loss_rate_hz)
-            stepper = self._systems[self._tq_cur][1]
-            light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
-            for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
-                for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
-                    rate = max(rate, resonance_rate_hz(fm, light))
+            res = 0.0
+            if self._exact_opt is not True:
+                stepper = self._systems[self._tq_cur][1]
+                light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
+                for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
+                    for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
+                        res = max(res, resonance_rate_hz(fm, light))
+            if self._exact_opt is None:  # the exact map instead of resolving the light mode
+                self._exact = res > rate
+            if not self._exact:
+                rate = max(rate, res)
             rate = min(rate, MAX_STEPS_PER_MESH * f)
         return max(1, int(np.ceil(rate / self.output_rate_hz * (1 - 1e-12))))
 
@@ -389,24 +415,23 @@ class Simulator:
     def _cutoff_hz(self, system: AssembledSystem, speed_rpm: float) -> float | None:
         """Modal cut-off of the reduced model at a speed (None: full model).
 
-        ``"auto"``: on multi-mesh rigs (the multi-mesh kernel) the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR``
-        output rates and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency at the
-        quantised speed; single-mesh rigs stay on the full model (the located sub-steps of the
-        single-mesh kernel take no reduction). A number: that cut-off on any rig.
+        ``"auto"``: the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR`` output rates and
+        ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency at the quantised speed
+        (docs/solver.md, "Modal reduction": the RMS DTE within 0.005 % of the full model on the paper
+        gearbox). A number: that cut-off.
         """
         cut = self.modal_cutoff_hz
         if cut is None:
             return None
         if cut != "auto":
             return float(cut)
-        if len(system.meshes) < 2:
-            return None
         f_mesh = mesh_frequency_hz(system, max(self._sq(speed_rpm), DT_RULE_SPEED_FLOOR_RPM))
-        return max(MODAL_CUTOFF_OUTPUT_FACTOR * self.output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh)
+        return auto_modal_cutoff_hz(f_mesh, self.output_rate_hz)
 
     def _activate(self, stepper: NewmarkStepper, st: SolverState, speed_rpm: float) -> None:
         self._stepper = stepper
         stepper.modal_cutoff_hz = self._cutoff_hz(stepper.system, speed_rpm)
+        stepper.exact_map = self._exact
         self._omega_q = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
         stepper.set_operating_point(self._omega_q, self.dt, st)
 
@@ -527,6 +552,7 @@ class Simulator:
             "dt_s": self.dt,
             "decimation": float(self._k),
             "located": float(self.locate_events),
+            "exact_modal_map": float(self._exact),
             "contact_loss_rule": float(self._loss_mode),
             "mesh_solve_failures": float(self._stepper.n_mesh_fail),
         }
@@ -596,7 +622,12 @@ class Simulator:
             self._activate(stepper, x_state, s_now)
         else:
             oq = self._sq(s_now) * 2.0 * np.pi / 60.0
-            if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:
+            if (
+                oq != self._omega_q
+                or self._stepper.map is None
+                or self._stepper.map.dt != self.dt
+                or self._stepper.exact_map != self._exact
+            ):
                 self._activate(self._stepper, self._state, s_now)
         dt = self.dt
         # new steps are raw+1 .. raw+n (raw is the carried state), plus one neighbour on each side

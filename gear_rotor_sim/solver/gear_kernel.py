@@ -303,7 +303,7 @@ def _set_columns(
         beta[c + j] = coef[i, j] * fm
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
 def _event_step(
     n: int,
     m0: int,
@@ -321,6 +321,8 @@ def _event_step(
     work: tuple,
     dt: float,
     bound: float,
+    expo: bool,
+    mu_max: float,
 ) -> tuple[int, int, int]:
     """Step n-1 -> n as Newmark sub-steps split at the table jumps ``bnd[1..m0-1]`` (fractions of the
     step, phases ``bfe``, mesh ``bmesh``), at a jump of mesh i at the step end (``endfe[i]`` >= 0) and
@@ -336,11 +338,12 @@ def _event_step(
     event step, not one per sub-step and helper: every array handed over costs a reference count).
 
     ``prev`` = (d, dd, e, ed, f, s) per mesh at the step start, updated to the step end; ``cur`` =
-    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force) receive the end values. Returns
-    (status, failed solves, sub-steps).
+    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force) receive the end values. ``expo``: the map
+    is the exact modal propagator (``newmark.step_map(exact=True)``), and so are its sub-steps.
+    Returns (status, failed solves, sub-steps).
     """
     bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev
-    zr, zi, _rr, _ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
+    zr, zi, rr, ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
     pq, pqn, _pq_static, rstat, _pd, _pv, mesh_par = mesh
     _phase, phase_rate, kfac, te_add, ted_add, ampl = exc
     d_p, dd_p, e_p, ed_p, f_p, s_p = prev
@@ -389,17 +392,34 @@ def _event_step(
         w = tb - ta
         # --- sub-step map r', rho over all modes
         for j in range(nmode):
-            ar = 0.5 * w * mur[j]
-            ai = 0.5 * w * mui[j]
-            dr = 1.0 - ar
-            inv = 1.0 / (dr * dr + ai * ai)
-            nr_ = 1.0 + ar
-            rpr[j] = (nr_ * dr - ai * ai) * inv
-            rpi[j] = (ai * dr + nr_ * ai) * inv
-            er = 1.0 - 0.5 * mur[j]
-            ei = -0.5 * mui[j]
-            rhr[j] = w * (er * dr - ei * ai) * inv
-            rhi[j] = w * (ei * dr + er * ai) * inv
+            if not expo or mur[j] * mur[j] + mui[j] * mui[j] > mu_max * mu_max:
+                # Newmark: r' = (1 + w mu/2)/(1 - w mu/2), rho = w (1 - mu/2)/(1 - w mu/2)
+                ar = 0.5 * w * mur[j]
+                ai = 0.5 * w * mui[j]
+                dr = 1.0 - ar
+                inv = 1.0 / (dr * dr + ai * ai)
+                nr_ = 1.0 + ar
+                rpr[j] = (nr_ * dr - ai * ai) * inv
+                rpi[j] = (ai * dr + nr_ * ai) * inv
+                er = 1.0 - 0.5 * mur[j]
+                ei = -0.5 * mui[j]
+                rhr[j] = w * (er * dr - ei * ai) * inv
+                rhi[j] = w * (ei * dr + er * ai) * inv
+            else:  # exact propagator: r' = exp(w mu), rho = (exp(w mu) - 1) / (exp(mu) - 1), exp(mu) = r
+                ex = np.exp(w * mur[j])
+                cr = ex * np.cos(w * mui[j])
+                ci = ex * np.sin(w * mui[j])
+                rpr[j] = cr
+                rpi[j] = ci
+                dr = rr[j] - 1.0
+                di = ri[j]
+                den = dr * dr + di * di
+                if den > 1e-30:
+                    rhr[j] = ((cr - 1.0) * dr + ci * di) / den
+                    rhi[j] = (ci * dr - (cr - 1.0) * di) / den
+                else:  # mu -> 0: rho -> w
+                    rhr[j] = w
+                    rhi[j] = 0.0
         # --- responses of delta, delta' at the sub-step end (reductions over the forced modes)
         for r in range(npm):
             sm = 0.0
@@ -689,6 +709,8 @@ def run_chunk_gear(
     locate: bool,
     bound: float,
     fuse: bool = True,
+    expo: bool = False,
+    mu_max: float = 1.0,
 ) -> tuple[int, int, int, int]:
     """Advance ``n = phase.shape[0] - 1`` steps of the modal map with ``nm >= 1`` table meshes.
 
@@ -1194,8 +1216,9 @@ def run_chunk_gear(
         else:
             # a step holding an event: Newmark sub-steps split there
             status, nfl, nsb = _event_step(
-                n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound
-            )
+                n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound,
+                expo, mu_max,
+            )  # fmt: skip
             n_fail += nfl
             n_sub += nsb
             if status != STATUS_OK:

@@ -433,6 +433,7 @@ class StepMap:
     resid: np.ndarray | None = None
     # (Re Phi^T, Im Phi^T, R^T) for ``kernels.modal_to_physical``, built on first use
     xrec: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    exact: bool = False  # the exact modal propagator instead of Newmark's map (step_map)
 
 
 def reduce_basis(basis: Basis, cutoff_hz: float) -> tuple[Basis, np.ndarray]:
@@ -479,8 +480,19 @@ def _pad(n: int) -> int:
     return max(8, -(-n // 8) * 8)
 
 
-def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelSpec]) -> StepMap:
-    """Trapezoidal (Newmark average acceleration) map of step ``dt`` in the basis."""
+def step_map(
+    lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelSpec], exact: bool = False
+) -> StepMap:
+    """Trapezoidal (Newmark average acceleration) map of step ``dt`` in the basis.
+
+    ``exact``: for the modes the step resolves (``|h lam| <= EXACT_MAP_MU_MAX``) the exact
+    propagator ``r = exp(h lam)``, with the forces by the same two-point quadrature weighted so that
+    a constant force gives the exact static response, ``s = (exp(h lam) - 1) / (2 lam)`` (-> h/2 for
+    h lam -> 0): free of Newmark's period error, second order in the forcing like Newmark. The
+    stiffer modes keep Newmark's map (quasi-static at the step: the two-point weights of the exact
+    propagator would make them follow the mean of the two end loads, half a step late). Docs:
+    docs/solver.md, "Exact modal map". The dense fallback stays Newmark's map.
+    """
     n = lin.nfree
     nstate = lin.nstate
     bf = np.zeros((nstate, lin.m))
@@ -520,6 +532,13 @@ def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelS
     den = 1.0 - 0.5 * dt * lam
     r = (1.0 + 0.5 * dt * lam) / den
     s = (0.5 * dt) / den
+    if exact:  # the modes the step resolves (|h lam| <= EXACT_MAP_MU_MAX)
+        mu = dt * lam
+        ex = np.abs(mu) <= EXACT_MAP_MU_MAX
+        small = np.abs(mu) < 1e-8
+        r = np.where(ex, np.exp(mu), r)
+        se = np.where(small, 0.5 * dt * (1.0 + 0.5 * mu), np.expm1(mu) / (2.0 * np.where(small, 1.0, lam)))
+        s = np.where(ex, se, s)
     w = basis.to_modal(bf)  # (nk, m) = Phi^-1 B f_k
     sw = (s[:, None] * w).T  # (m, nk)
     cm = mrows @ basis.phi  # (2nm, nk)
@@ -548,8 +567,12 @@ def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelS
         aligned(df),
         basis,
         npad,
+        exact=bool(exact),
     )
 
+
+#: ``step_map(exact=True)``: modes with ``|h lambda|`` up to this value take the exact propagator.
+EXACT_MAP_MU_MAX = 1.0
 
 OUTPUT_BLOCK_STEPS = 64  # steps per output matrix product in the gear kernel (fits L1/L2)
 
@@ -1127,6 +1150,7 @@ class NewmarkStepper:
         self.disable_fast = disable_fast
         self.fuse_meshes = True  # gear kernel: fused mode pass for <= 2 meshes (False: tests)
         self.modal_cutoff_hz: float | None = None  # modal reduction with static correction (None: full)
+        self.exact_map = False  # the exact modal propagator instead of Newmark's map (step_map)
         self._reduced: dict[tuple[float, float], tuple[Basis, np.ndarray]] = {}
         self.locate_events = bool(locate_events)
         self.n_substeps = 0
@@ -1153,6 +1177,7 @@ class NewmarkStepper:
             or self.map.basis.omega != omega
             or self.map.dt != dt
             or (self.map.resid is None) != (cut is None)
+            or self.map.exact != (self.exact_map and not self.map.dense)
         ):
             basis = self.basis(omega)
             resid = None
@@ -1165,11 +1190,11 @@ class NewmarkStepper:
                     if len(self._reduced) > self._cache_size:
                         self._reduced.pop(next(iter(self._reduced)))
                 basis, resid = hit
-            self.map = step_map(self.lin, basis, dt, self.specs)
+            self.map = step_map(self.lin, basis, dt, self.specs, self.exact_map)
             self.map.resid = resid
             self.gear = None if self.disable_fast else gear_map(self.lin, self.map, self.specs)
             if resid is not None and self.gear is None:  # only the gear kernel takes a reduced basis
-                self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
+                self.map = step_map(self.lin, self.basis(omega), dt, self.specs, self.exact_map)
         self.load_state(state)
 
     def _beta_of(self, st: SolverState) -> np.ndarray:
@@ -1388,6 +1413,8 @@ class NewmarkStepper:
             bool(self.locate_events),
             bound,
             self.fuse_meshes,
+            mp.exact,
+            EXACT_MAP_MU_MAX,
         )
         self.n_substeps += nsub
         self.n_mesh_fail += nfail
