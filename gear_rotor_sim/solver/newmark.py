@@ -1169,6 +1169,22 @@ class NewmarkStepper:
             self._bases.move_to_end(omega)
         return b
 
+    def share_bases(self, other: NewmarkStepper) -> None:
+        """Use (and fill) ``other``'s eigenbasis cache: the two must have the same linear part.
+
+        For the ramp systems of :mod:`gear_rotor_sim.solver.rebase`, which keep a grid node's M, K, C,
+        G and mean mesh terms and change only the static load and the mesh tables: the state matrix
+        is the node's bit for bit, so are its eigenbases. Raises ValueError if the linear parts differ.
+        """
+        a, b = self.lin, other.lin
+        same = a.nfree == b.nfree and all(
+            np.array_equal(getattr(a, k), getattr(b, k)) for k in ("M", "MinvK", "MinvC", "MinvG", "V")
+        )
+        same = same and np.array_equal(a.MinvF[:, 1:], b.MinvF[:, 1:])  # the forced-mode order
+        if not same:
+            raise ValueError("share_bases: the linear parts differ (the eigenbases would not be exact)")
+        self._bases = other._bases
+
     def set_operating_point(self, omega: float, dt: float, state: SolverState) -> None:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
         cut = self.modal_cutoff_hz
