@@ -285,6 +285,8 @@ def default_against_full(
         )
         rms_ref = float(np.sqrt(np.mean(x_ref**2)))
         rms_def = float(np.sqrt(np.mean(res_def.channel("dte") ** 2)))
+        res_full, _ = simulate_steady(system, rpm, settle, periods, 32, ("dte",), st0, "step")
+        rms_full = float(np.sqrt(np.mean(res_full.channel("dte") ** 2)))
         rows.append(
             {
                 "temperature_c": temp,
@@ -293,6 +295,7 @@ def default_against_full(
                 "rms_dte_error_pct": 100.0 * (rms_def / rms_ref - 1.0),
                 "default_steps_per_mesh": int(res_def.steps_per_mesh),
                 "default_modal_cutoff_hz": cut,
+                "full_rule_error_pct": 100.0 * (rms_full / rms_ref - 1.0),
             }
         )
     counted = [abs(r["rms_dte_error_pct"]) for r in rows if r["motion"] != "chaotic"]
