@@ -51,7 +51,13 @@ from gear_rotor_sim.solver.newmark import (
     quantize_speed_rpm,
     static_equilibrium,
 )
-from gear_rotor_sim.solver.rebase import ThermalLoad, ramp_nodes, ramp_system
+from gear_rotor_sim.solver.rebase import (
+    ThermalLoad,
+    interpolated_system,
+    ramp_linear_model,
+    ramp_nodes,
+    ramp_system,
+)
 from gear_rotor_sim.system_data import AssembledSystem
 
 __all__ = ["Effect", "SimulationDiverged", "Simulator", "StepContext"]
@@ -66,6 +72,9 @@ MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
 #: coarser grids (docs/solver.md, "Ramps"); at a constant set-point the fine quanta above apply.
 RAMP_SPEED_QUANTUM_REL = 0.08
 RAMP_TEMPERATURE_QUANTUM_C = 5.0
+#: While the temperature ramps, exact systems are assembled on this grid (and at the ramp's ends); the
+#: basis-grid nodes between are interpolated (solver/rebase.py).
+RAMP_ASSEMBLY_QUANTUM_C = 25.0
 MODAL_CUTOFF_MESH_HARMONICS = 4.0
 #: The dt rule uses at least this speed (dt at standstill stays bounded).
 DT_RULE_SPEED_FLOOR_RPM = 60.0
@@ -258,6 +267,7 @@ class Simulator:
         # ramp systems at the fine quanta between the grid nodes (solver/rebase.py), LRU
         self._ramp_systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         self._thermal: ThermalLoad | None = None
+        self._nodes: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         tq = self._tq(temperature_c)
         system = self._build(tq)
         names = list(channels) if channels is not None else self.default_channels(system)
@@ -318,39 +328,66 @@ class Simulator:
     def _tq(temperature_c: float) -> float:
         return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
+    def _thermal_load(self, tq: float) -> np.ndarray | None:
+        """Exact thermal node load for the default assembly (None: interpolated, custom builders)."""
+        if self._builder is not _default_builder:
+            return None
+        if self._thermal is None:
+            self._thermal = ThermalLoad(self.cfg)
+        return self._thermal(tq)
+
+    def _ramp_range(self) -> tuple[float, float]:
+        return tuple(sorted((self._tq(self._temp.v0), self._tq(self._temp.target))))  # type: ignore[return-value]
+
+    def _node(self, tq: float) -> tuple[AssembledSystem, NewmarkStepper]:
+        """Node of the ramp's basis grid: exact on the assembly grid and at the ramp's ends, else
+        interpolated between them (solver/rebase.py); its own eigenbases."""
+        lo, hi = self._ramp_range()
+        a, b = (self._tq(v) for v in ramp_nodes(tq, RAMP_ASSEMBLY_QUANTUM_C, lo, hi))
+        if tq in (a, b):
+            return self._system(tq)
+        hit = self._nodes.get(tq)
+        if hit is None:
+            system = interpolated_system(self._system(a)[0], self._system(b)[0], tq, self._thermal_load(tq))
+            hit = (system, self._stepper_for(system))
+            self._nodes[tq] = hit
+            if len(self._nodes) > 4:
+                self._nodes.popitem(last=False)
+        else:
+            self._nodes.move_to_end(tq)
+        return hit
+
     def _system_at(self, tq: float, ramping: bool) -> tuple[AssembledSystem, NewmarkStepper]:
-        """System and stepper at the fine quantum ``tq``: the exact assembly at a constant set-point
-        and at the ramp grid's nodes, a ramp system (solver/rebase.py) between them while the
-        temperature ramps."""
+        """System and stepper at the fine quantum ``tq``: the exact assembly at a constant set-point;
+        while the temperature ramps, the basis grid's nodes and, between them, ramp systems on the
+        nearer node's linear part and eigenbases (solver/rebase.py)."""
         q = self.ramp_temperature_quantum_c
         if not ramping or q <= TEMPERATURE_QUANTUM_C:
             return self._system(tq)
-        lo, hi = sorted((self._tq(self._temp.v0), self._tq(self._temp.target)))  # nodes within the ramp
+        lo, hi = self._ramp_range()
         a, b = (self._tq(v) for v in ramp_nodes(tq, q, lo, hi))
         if tq in (a, b):
-            return self._system(tq)
+            return self._node(tq)
         hit = self._ramp_systems.get(tq)
         if hit is not None:
             self._ramp_systems.move_to_end(tq)
             return hit
-        sys_a, step_a = self._system(a)
-        sys_b, step_b = self._system(b)
-        node, node_stepper = (sys_a, step_a) if tq - a <= b - tq else (sys_b, step_b)
-        thermal = None
-        if self._builder is _default_builder:  # the exact thermal node load (else interpolated)
-            if self._thermal is None:
-                self._thermal = ThermalLoad(self.cfg)
-            thermal = self._thermal(tq)
-        system = ramp_system(node, sys_a, sys_b, tq, thermal)
-        stepper = NewmarkStepper(
-            system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events
-        )
-        stepper.share_bases(node_stepper)
+        sys_a = self._node(a)[0]
+        sys_b = self._node(b)[0]
+        near_sys, near = self._node(a if tq - a <= b - tq else b)
+        system = ramp_system(near_sys, sys_a, sys_b, tq, self._thermal_load(tq))
+        stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self.effects))
+        stepper.basis_source = near.basis  # the same state matrix: the node's bases (and its cache)
         hit = (system, stepper)
         self._ramp_systems[tq] = hit
         if len(self._ramp_systems) > 4:
             self._ramp_systems.popitem(last=False)
         return hit
+
+    def _stepper_for(self, system: AssembledSystem, lin: Any = None) -> NewmarkStepper:
+        return NewmarkStepper(
+            system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events, lin=lin
+        )
 
     def _speed_quantum(self, speed_rpm: float) -> float:
         """Relative speed quantum of the basis in use: coarse while the speed ramps."""
@@ -486,6 +523,7 @@ class Simulator:
             _check_temperature(temperature_c)
             self._system(self._tq(temperature_c))  # material policy check now, not mid-stream
             self._ramp_systems.clear()  # their grid nodes belong to the previous ramp
+            self._nodes.clear()
             self._temp = _Ramp(t, float(self._temp.value(t)), float(temperature_c), self.temperature_ramp)
 
     def set_effects(self, effects: Sequence[Effect]) -> None:
@@ -503,6 +541,7 @@ class Simulator:
         self.cfg = cfg
         self._systems.clear()
         self._ramp_systems.clear()
+        self._nodes.clear()
         _, stepper = self._system(self._tq_cur)
         self._sys_key = (self._tq_cur, False)
         t = self._raw_time

@@ -25,7 +25,7 @@ from __future__ import annotations
 import hashlib
 import re
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -1210,6 +1210,9 @@ class NewmarkStepper:
         (docs/solver.md); False takes every event at the step instants, as the other kernels do.
     meshes_kernel_for_one : bool
         Run a single-mesh system through the multi-mesh kernel too (tests of one against the other).
+    lin : LinearModel, optional
+        The linear model of ``system`` with ``effects`` if already at hand (the ramp systems of
+        :mod:`gear_rotor_sim.solver.rebase` derive it from their grid node's); None builds it.
     """
 
     def __init__(
@@ -1222,13 +1225,17 @@ class NewmarkStepper:
         disable_fast: bool = False,
         locate_events: bool = False,
         meshes_kernel_for_one: bool = False,
+        lin: LinearModel | None = None,
     ) -> None:
         self.system = system
         self.specs = list(specs)
         self.effects = tuple(effects)
-        self.lin = LinearModel(system, effect_columns(system, self.effects))
+        self.lin = LinearModel(system, effect_columns(system, self.effects)) if lin is None else lin
         self.force_dense = force_dense
         self._bases: OrderedDict[float, Basis] = OrderedDict()
+        # where a basis not in the cache comes from (None: eigen_basis of ``lin``); the ramp systems of
+        # solver/rebase.py take their grid node's basis with corrected eigenvalues
+        self.basis_source: Callable[[float], Basis] | None = None
         self._cache_size = cache_size
         self.map: StepMap | None = None
         self.row_index = [i for i, s in enumerate(self.specs) if s.kind == "row"]
@@ -1253,29 +1260,14 @@ class NewmarkStepper:
     def basis(self, omega: float) -> Basis:
         b = self._bases.get(omega)
         if b is None:
-            b = eigen_basis(self.lin, omega, self.force_dense)
+            src = self.basis_source
+            b = eigen_basis(self.lin, omega, self.force_dense) if src is None else src(omega)
             self._bases[omega] = b
             if len(self._bases) > self._cache_size:
                 self._bases.popitem(last=False)
         else:
             self._bases.move_to_end(omega)
         return b
-
-    def share_bases(self, other: NewmarkStepper) -> None:
-        """Use (and fill) ``other``'s eigenbasis cache: the two must have the same linear part.
-
-        For the ramp systems of :mod:`gear_rotor_sim.solver.rebase`, which keep a grid node's M, K, C,
-        G and mean mesh terms and change only the static load and the mesh tables: the state matrix
-        is the node's bit for bit, so are its eigenbases. Raises ValueError if the linear parts differ.
-        """
-        a, b = self.lin, other.lin
-        same = a.nfree == b.nfree and all(
-            np.array_equal(getattr(a, k), getattr(b, k)) for k in ("M", "MinvK", "MinvC", "MinvG", "V")
-        )
-        same = same and np.array_equal(a.MinvF[:, 1:], b.MinvF[:, 1:])  # the forced-mode order
-        if not same:
-            raise ValueError("share_bases: the linear parts differ (the eigenbases would not be exact)")
-        self._bases = other._bases
 
     def set_operating_point(self, omega: float, dt: float, state: SolverState) -> None:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
