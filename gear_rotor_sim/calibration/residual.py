@@ -39,6 +39,7 @@ import numpy as np
 from scipy import signal as _sig
 
 from gear_rotor_sim.analysis.signals import amplitude_spectrum, analytic_band, resample_to_angle
+from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
 
 FAMILIES = ("order", "envelope", "static")
@@ -211,6 +212,9 @@ class ModelRunner:
         data = np.ascontiguousarray(block.data[i0 : i0 + self.n_samples])
         if data.shape[0] != self.n_samples:
             raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {self.n_samples}")
+        add_direct_bearing_forces(
+            data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, i0
+        )
         self.n_runs += 1
         _CACHE[key] = data
         if len(_CACHE) > _CACHE_MAX:
@@ -240,6 +244,56 @@ class ModelRunner:
         return out
 
 
+def add_direct_bearing_forces(
+    data: np.ndarray,
+    channels: Sequence[str],
+    effects: Sequence[object],
+    cfg: object,
+    temperature_c: float,
+    speed_rpm: float,
+    sample_rate_hz: float,
+    first_index: int,
+    sub_samples: int = 10,
+) -> None:
+    """Add the direct path of bearing-defect impacts to the bearing-force channels, in place.
+
+    A defect's impact is an internal force pair: the simulator applies the shaft's share at the
+    bearing node (``BearingDefect.force_amplitudes``); the race's share goes through the outer ring
+    straight into the housing (``BearingDefect.impact_force``), which is what a force sensor under the
+    bearing (and the housing behind it) feels first. The pulse (about 0.1 ms, shorter than two
+    samples at 20 kHz) is averaged over each sample interval (``sub_samples`` points) so that its
+    impulse is kept whatever its phase against the sampling. Constant speed; shaft angle 0 at
+    model time 0 (the measured-data contract).
+    """
+    from types import SimpleNamespace
+
+    from gear_rotor_sim.faults import BearingDefect
+    from gear_rotor_sim.system import shaft_speed_ratios
+
+    defects = [e for e in effects if isinstance(e, BearingDefect) and e.force_n]
+    if not defects:
+        return
+    system = cached_system(cfg, temperature_c)
+    ratios = np.asarray(shaft_speed_ratios(cfg), dtype=float)
+    n = data.shape[0]
+    sub = (np.arange(sub_samples) + 0.5) / sub_samples - 0.5
+    t = ((first_index + np.arange(n))[:, None] + sub[None, :]).ravel() / sample_rate_hz
+    omega = speed_rpm * 2.0 * math.pi / 60.0
+    ctx = SimpleNamespace(
+        system=system,
+        shaft_angle=np.outer(omega * t, ratios),
+        shaft_speed=np.tile(omega * ratios, (t.size, 1)),
+    )
+    for d in defects:
+        cols = [f"bearing{d.bearing}_f{a}" for a in "xy"]
+        if not any(c in channels for c in cols):
+            continue
+        f = d.impact_force(ctx).reshape(n, sub_samples, 2).mean(axis=1)
+        for k, c in enumerate(cols):
+            if c in channels:
+                data[:, list(channels).index(c)] += f[:, k]
+
+
 def housing_source(channel: str) -> str | None:
     """``bearing<k>_housing_a<d>`` -> ``bearing<k>_f<d>`` (the force driving the housing), else None."""
     if "_housing_a" in channel:
@@ -259,6 +313,9 @@ class ShaftOrders:
     ratio: float
     orders: np.ndarray  # int orders
     teeth: int = 0  # teeth of the shaft's (first) gear: orders k * teeth are the mesh carriers
+    #: teeth of every gear on the shaft (a shaft of a multi-stage train carries one gear per stage):
+    #: the multiples of each are mesh carriers
+    carrier_teeth: tuple[int, ...] = ()
 
 
 def shaft_orders(
@@ -279,6 +336,7 @@ def shaft_orders(
         kmax = int(0.42 * sample_rate_hz / f)
         orders = set(range(1, low_orders + 1))
         teeth = 0
+        all_teeth: list[int] = []
         for m in cfg.meshes:
             z = (
                 m.pinion_teeth
@@ -288,11 +346,12 @@ def shaft_orders(
             if z is None:
                 continue
             teeth = teeth or int(z)
+            all_teeth.append(int(z))
             for h in range(1, mesh_harmonics + 1):
                 orders.update(range(h * z - sidebands, h * z + sidebands + 1))
         arr = np.array(sorted(o for o in orders if 1 <= o <= kmax), dtype=int)
         if arr.size:
-            out.append(ShaftOrders(shaft.name, float(ratios[s]), arr, teeth))
+            out.append(ShaftOrders(shaft.name, float(ratios[s]), arr, teeth, tuple(dict.fromkeys(all_teeth))))
     return out
 
 
@@ -479,6 +538,11 @@ class ResidualSettings:
     envelope_min_hz: float = 5.0
     envelope_segment_s: float = 0.1
     max_shift_mesh_periods: float = 0.5
+    #: envelope of the non-synchronous part only (every shaft's synchronous average removed; needs
+    #: the order family, i.e. a speed known to within the order resolution)
+    envelope_non_synchronous: bool = True
+    #: envelope features only on the channels at a bearing (bearing force, housing acceleration), if any
+    envelope_at_bearings: bool = True
 
 
 class Comparison:
@@ -543,6 +607,13 @@ class Comparison:
             for sh in self.shafts
         ]
         self._static_features(measurement)
+        # envelope (bearing) features on the channels measured at a bearing (force under it, housing
+        # accelerometer on it) when there are any: the model's path from a bearing defect to a remote
+        # sensor (DTE, a shaft's acceleration) runs through the shaft-side impedance at several kHz, the
+        # least certain part of any model (docs/calibration.md Sec. 8.2); else every channel
+        at_bearing = np.array([n.startswith("bearing") for n in self.names], dtype=bool)
+        use_bearings = settings.envelope_at_bearings and bool(at_bearing.any())
+        self.env_use = at_bearing if use_bearings else np.ones(self.nc, dtype=bool)
         self.d_env: list[np.ndarray] = []
         self.env_f: np.ndarray = np.zeros(0)
         self.env_k = 1.0
@@ -624,12 +695,18 @@ class Comparison:
         if "envelope" in self.families:
             resid = self.y - model * self._quick_gains(model)
             self.bands = []
+            self._y_env = [
+                self._envelope_input(self.y[:, c]) if self.env_use[c] else self.y[:, c]
+                for c in range(self.nc)
+            ]
             for c in range(self.nc):
-                if self.s.envelope_band_hz is not None:
+                if not self.env_use[c]:
+                    band = self.bands[-1] if self.bands else (0.25 * self.fs, 0.45 * self.fs)
+                elif self.s.envelope_band_hz is not None:
                     band = self.s.envelope_band_hz
                 else:
                     band = prominent_envelope_band(
-                        resid[:, c],
+                        self._envelope_input(resid[:, c]),
                         self.fs,
                         self.s.envelope_min_hz,
                         self.env_hi,
@@ -640,21 +717,28 @@ class Comparison:
             self.d_env = []
             for c in range(self.nc):
                 f, p, k = envelope_power_spectrum(
-                    analytic_band(self.y[:, c], self.fs, self.bands[c]),
+                    analytic_band(self._y_env[c], self.fs, self.bands[c]),
                     self.fs,
                     self.s.envelope_min_hz,
                     self.env_hi,
                     self.s.envelope_segment_s,
                 )
-                self.d_env.append(p)
+                self.d_env.append(p if self.env_use[c] else np.zeros_like(p))
                 self.env_f, self.env_k = f, k
             self.env_floor = [float(np.median(p)) for p in self.d_env]
             for c, fl in enumerate(self.env_floor):
-                if not fl > 0:
+                if not fl > 0 and self.env_use[c]:
                     self.m.issues.append(
                         f"{self.names[c]}: no envelope content (zero spectrum): left out of the envelope "
                         "features"
                     )
+
+    def _envelope_input(self, x: np.ndarray) -> np.ndarray:
+        """Signal whose envelope is analysed: without every shaft's synchronous part when the speed is
+        known precisely (order family active; ``features_orders.remove_synchronous``), else as is."""
+        if not (self.s.envelope_non_synchronous and "order" in self.families and self.shafts):
+            return x
+        return remove_synchronous(x, self.fs, [sh.ratio * self.speed_hz for sh in self.shafts])
 
     def _quick_gains(self, model: np.ndarray) -> np.ndarray:
         num = np.sum(self.y * model, axis=0)
@@ -720,7 +804,12 @@ class Comparison:
         """Linear features (order coefficients, analytic band signals) of model outputs (n, c)."""
         order = self._order(model) if "order" in self.families else []
         analytic = (
-            [analytic_band(model[:, c], self.fs, self.bands[c]) for c in range(self.nc)]
+            [
+                analytic_band(self._envelope_input(model[:, c]), self.fs, self.bands[c])
+                if self.env_use[c]
+                else np.zeros(model.shape[0], dtype=complex)
+                for c in range(self.nc)
+            ]
             if ("envelope" in self.families)
             else []
         )
@@ -744,11 +833,14 @@ class Comparison:
 
     # ---------------------------------------------------------------------------------- scoring
     def carriers(self, s: int) -> np.ndarray:
-        """Mask of the mesh-carrier orders (multiples of the shaft's tooth count) of shaft ``s``."""
+        """Mask of the mesh-carrier orders of shaft ``s``: multiples of the tooth count of any gear
+        on the shaft (one per stage on the intermediate shaft of a multi-stage train)."""
         sh = self.shafts[s]
-        if not sh.teeth:
-            return np.zeros(sh.orders.size, dtype=bool)
-        return sh.orders % sh.teeth == 0
+        teeth = sh.carrier_teeth or ((sh.teeth,) if sh.teeth else ())
+        mask = np.zeros(sh.orders.size, dtype=bool)
+        for z in teeth:
+            mask |= sh.orders % z == 0
+        return mask
 
     def set_carrier_tolerance(self, tol: float) -> None:
         """Model-form tolerance of the mesh carriers (estimated from the baseline fit)."""

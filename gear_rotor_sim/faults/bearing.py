@@ -191,6 +191,22 @@ class BearingDefect(Effect):
         return node_xy_columns(system, self._node0(system))
 
     def force_amplitudes(self, ctx: Any) -> np.ndarray | None:
+        """Force on the shaft at the bearing node: the reaction of :meth:`impact_force` (inward)."""
+        f = self.impact_force(ctx)
+        return -f
+
+    def impact_force(self, ctx: Any) -> np.ndarray:
+        """Impact force on the race that carries the defect's far edge, pushed outward into the
+        housing, (n, 2) x/y, N.
+
+        The impact is an internal force pair of the bearing: the outer ring (a thin ring seated in
+        the housing) passes this force straight to the housing and to a force sensor under it,
+        while the shaft receives the opposite force (:meth:`force_amplitudes`) and answers through
+        its own dynamics. The measured bearing force is the sum of both paths
+        (``calibration.residual.add_direct_bearing_forces``); quasi-statically they cancel (an
+        internal pair exerts no net force), above the shaft-bearing resonances the direct path
+        dominates.
+        """
         system = ctx.system
         s = shaft_index(system, self._node0(system))
         theta = np.abs(ctx.shaft_angle[:, s])
