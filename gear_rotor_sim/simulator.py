@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
 from gear_rotor_sim.solver.decimate import StreamDecimator
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
@@ -70,7 +71,7 @@ TEMPERATURE_QUANTUM_C = 0.5
 MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
 #: While a speed / temperature ramp runs, the gyroscopic basis and the system are re-built on these
 #: coarser grids (docs/solver.md, "Ramps"); at a constant set-point the fine quanta above apply.
-RAMP_SPEED_QUANTUM_REL = 0.08
+RAMP_SPEED_QUANTUM_REL = 0.25
 RAMP_TEMPERATURE_QUANTUM_C = 5.0
 #: While the temperature ramps, exact systems are assembled on this grid (and at the ramp's ends); the
 #: basis-grid nodes between are interpolated (solver/rebase.py).
@@ -173,10 +174,13 @@ class Simulator:
     speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
         Ramp rates toward new targets (> 0; ``inf`` jumps).
     ramp_speed_quantum_rel, ramp_temperature_quantum_c : float
-        Grids of the gyroscopic basis (relative speed step, default 8 %) and of the system rebuild
-        (default 5 C) while a speed or temperature ramp runs; at a constant set-point the fine
-        quanta (1 %, 0.5 C) apply. Chunks still end at every fine quantum (the dt rule decides
-        there). ``SPEED_QUANTUM_REL`` / ``TEMPERATURE_QUANTUM_C`` give the per-quantum rebuild.
+        Grids of the eigenbasis while a speed ramp (relative speed step, default 25 %) or a
+        temperature ramp (default 5 C; exact assembly per ``RAMP_ASSEMBLY_QUANTUM_C``, the static
+        load, mesh tables and backlash still per 0.5 C, solver/rebase.py) runs; at a constant
+        set-point the fine quanta (1 %, 0.5 C) apply. Chunks still end at every fine quantum (the dt
+        rule decides there). ``SPEED_QUANTUM_REL`` / ``TEMPERATURE_QUANTUM_C`` give the per-quantum
+        rebuild (an exact assembly and eigendecomposition per quantum). Eigenbases are cached on
+        disk across runs (solver/basis_cache.py).
     modal_cutoff_hz : "auto", float or None
         Modal reduction with static correction: the modes above the cut-off follow the excitation
         quasi-statically (residual flexibility) and only the retained ones are integrated by the exact
@@ -274,7 +278,7 @@ class Simulator:
         self.specs = parse_channels(system, names)
         self._systems[tq] = (
             system,
-            NewmarkStepper(system, self.specs, self.effects, force_dense, locate_events=self.locate_events),
+            self._stepper_for(system),
         )
         self.channels = tuple(names)
         self.units = tuple(s.unit for s in self.specs)
@@ -385,9 +389,13 @@ class Simulator:
         return hit
 
     def _stepper_for(self, system: AssembledSystem, lin: Any = None) -> NewmarkStepper:
-        return NewmarkStepper(
+        """A stepper whose eigenbases come from the disk cache (solver/basis_cache.py)."""
+        stepper = NewmarkStepper(
             system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events, lin=lin
         )
+        dense = self._force_dense
+        stepper.basis_source = lambda omega: cached_eigen_basis(stepper.lin, omega, dense)
+        return stepper
 
     def _speed_quantum(self, speed_rpm: float) -> float:
         """Relative speed quantum of the basis in use: coarse while the speed ramps."""
@@ -411,9 +419,7 @@ class Simulator:
             system = self._build(tq)
             hit = (
                 system,
-                NewmarkStepper(
-                    system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events
-                ),
+                self._stepper_for(system),
             )
             self._systems[tq] = hit
             if len(self._systems) > 8:

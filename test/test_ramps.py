@@ -1,4 +1,4 @@
-"""Ramps on coarse grids (a basis per 8 % of speed, a system per 5 C) against the per-quantum rebuild."""
+"""Ramps on coarse basis grids (25 % of speed, 5 C; ramp systems between) against the per-quantum rebuild."""
 
 from __future__ import annotations
 
