@@ -53,6 +53,7 @@ from gear_rotor_sim.solver.newmark import (
     static_equilibrium,
 )
 from gear_rotor_sim.solver.rebase import (
+    RampSpan,
     ThermalLoad,
     interpolated_system,
     ramp_linear_model,
@@ -269,7 +270,7 @@ class Simulator:
         self.locate_events = False  # set from the dt rule once k is known (below)
         self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         # ramp systems at the fine quanta between the grid nodes (solver/rebase.py), LRU
-        self._ramp_systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
+        self._spans: OrderedDict[float, RampSpan] = OrderedDict()  # per basis-grid node
         self._thermal: ThermalLoad | None = None
         self._nodes: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         tq = self._tq(temperature_c)
@@ -332,13 +333,18 @@ class Simulator:
     def _tq(temperature_c: float) -> float:
         return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
-    def _thermal_load(self, tq: float) -> np.ndarray | None:
-        """Exact thermal node load for the default assembly (None: interpolated, custom builders)."""
+    def _thermal_load_model(self) -> ThermalLoad | None:
+        """The thermal node load of the default assembly (None for a custom builder)."""
         if self._builder is not _default_builder:
             return None
         if self._thermal is None:
             self._thermal = ThermalLoad(self.cfg)
-        return self._thermal(tq)
+        return self._thermal
+
+    def _thermal_load(self, tq: float) -> np.ndarray | None:
+        """Exact thermal node load for the default assembly (None: interpolated, custom builders)."""
+        model = self._thermal_load_model()
+        return None if model is None else model(tq)
 
     def _ramp_range(self) -> tuple[float, float]:
         return tuple(sorted((self._tq(self._temp.v0), self._tq(self._temp.target))))  # type: ignore[return-value]
@@ -361,32 +367,45 @@ class Simulator:
             self._nodes.move_to_end(tq)
         return hit
 
-    def _system_at(self, tq: float, ramping: bool) -> tuple[AssembledSystem, NewmarkStepper]:
-        """System and stepper at the fine quantum ``tq``: the exact assembly at a constant set-point;
-        while the temperature ramps, the basis grid's nodes and, between them, ramp systems on the
-        nearer node's linear part and eigenbases (solver/rebase.py)."""
+    def _system_at(self, tq: float, ramping: bool, speed_rpm: float) -> tuple[NewmarkStepper, bool]:
+        """Stepper at the fine quantum ``tq`` and whether its modal state carries on (else the state is
+        loaded into it): the exact assembly at a constant set-point; while the temperature ramps, ramp
+        systems on the nearest basis-grid node's linear part and eigenbases (solver/rebase.py): with
+        the default assembly one :class:`RampSpan` per node whose kernel arrays are corrected in place
+        per quantum, else one new stepper per quantum."""
         q = self.ramp_temperature_quantum_c
         if not ramping or q <= TEMPERATURE_QUANTUM_C:
-            return self._system(tq)
+            return self._system(tq)[1], False
         lo, hi = self._ramp_range()
         a, b = (self._tq(v) for v in ramp_nodes(tq, q, lo, hi))
-        if tq in (a, b):
-            return self._node(tq)
-        hit = self._ramp_systems.get(tq)
-        if hit is not None:
-            self._ramp_systems.move_to_end(tq)
-            return hit
-        sys_a = self._node(a)[0]
-        sys_b = self._node(b)[0]
-        near_sys, near = self._node(a if tq - a <= b - tq else b)
+        near_t = a if tq - a <= b - tq else b
+        near_sys, near = self._node(near_t)
+        sys_a, sys_b = self._node(a)[0], self._node(b)[0]
         system = ramp_system(near_sys, sys_a, sys_b, tq, self._thermal_load(tq))
-        stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self.effects))
-        stepper.basis_source = near.basis  # the same state matrix: the node's bases (and its cache)
-        hit = (system, stepper)
-        self._ramp_systems[tq] = hit
-        if len(self._ramp_systems) > 4:
-            self._ramp_systems.popitem(last=False)
-        return hit
+        thermal = self._thermal_load_model()
+        if thermal is None or thermal.units is None:  # one stepper per quantum
+            if tq == near_t:
+                return near, False
+            stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self.effects))
+            stepper.basis_source = near.basis  # the same state matrix: the node's bases (and its cache)
+            return stepper, False
+        span = self._spans.get(near_t)
+        if span is None:
+            below, above = (
+                ramp_nodes(near_t - 0.5 * q, q, lo, hi)[0],
+                ramp_nodes(near_t + 0.5 * q, q, lo, hi)[1],
+            )
+            lower = self._node(self._tq(below))[0] if self._tq(below) < near_t else None
+            upper = self._node(self._tq(above))[0] if self._tq(above) > near_t else None
+            span = RampSpan((near_sys, near), lower, upper, thermal, self._stepper_for, self.effects)
+            self._spans[near_t] = span
+            if len(self._spans) > 4:
+                self._spans.popitem(last=False)
+        omega = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
+        stepper, carry = span.retarget(
+            system, omega, self.dt, self._cutoff_hz(near_sys, speed_rpm), self._state
+        )
+        return stepper, carry and stepper is self._stepper
 
     def _stepper_for(self, system: AssembledSystem, lin: Any = None) -> NewmarkStepper:
         """A stepper whose eigenbases come from the disk cache (solver/basis_cache.py)."""
@@ -528,7 +547,7 @@ class Simulator:
         if temperature_c is not None:
             _check_temperature(temperature_c)
             self._system(self._tq(temperature_c))  # material policy check now, not mid-stream
-            self._ramp_systems.clear()  # their grid nodes belong to the previous ramp
+            self._spans.clear()  # their grid nodes belong to the previous ramp
             self._nodes.clear()
             self._temp = _Ramp(t, float(self._temp.value(t)), float(temperature_c), self.temperature_ramp)
 
@@ -546,7 +565,7 @@ class Simulator:
         self.effects = effects
         self.cfg = cfg
         self._systems.clear()
-        self._ramp_systems.clear()
+        self._spans.clear()
         self._nodes.clear()
         _, stepper = self._system(self._tq_cur)
         self._sys_key = (self._tq_cur, False)
@@ -671,10 +690,11 @@ class Simulator:
         tq = self._tq(temp_now)
         key = (tq, temp_now != self._temp.target)
         if key != self._sys_key:
-            _, stepper = self._system_at(*key)
+            stepper, carry = self._system_at(*key, s_now)
             self._tq_cur = tq
             self._sys_key = key
-            self._activate(stepper, self._state, s_now)
+            if not carry:
+                self._activate(stepper, self._state, s_now)
         else:
             oq = self._sq(s_now) * 2.0 * np.pi / 60.0
             if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:

@@ -23,6 +23,7 @@ same map is run with the dense real transition matrix ``T = (I - hA/2)^-1 (I + h
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
@@ -56,7 +57,7 @@ _ALIGN = 64
 def aligned_zeros(shape: int | tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
     """C-contiguous zeros whose data pointer is 64-byte aligned."""
     shape_t = (shape,) if isinstance(shape, int) else tuple(shape)
-    n = int(np.prod(shape_t)) if shape_t else 1
+    n = math.prod(shape_t)
     item = np.dtype(dtype).itemsize
     buf = np.zeros(n * item + _ALIGN, dtype=np.uint8)
     off = (-buf.ctypes.data) % _ALIGN

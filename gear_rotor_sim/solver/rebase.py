@@ -33,10 +33,17 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from gear_rotor_sim.solver.newmark import LinearModel, effect_columns
+from gear_rotor_sim.solver.newmark import LinearModel, NewmarkStepper, aligned, effect_columns
 from gear_rotor_sim.system_data import AssembledSystem, MeshCoupling
 
-__all__ = ["ThermalLoad", "interpolated_system", "ramp_linear_model", "ramp_nodes", "ramp_system"]
+__all__ = [
+    "RampSpan",
+    "ThermalLoad",
+    "interpolated_system",
+    "ramp_linear_model",
+    "ramp_nodes",
+    "ramp_system",
+]
 
 
 def ramp_nodes(temperature_c: float, quantum_c: float, lo_c: float, hi_c: float) -> tuple[float, float]:
@@ -65,7 +72,7 @@ class ThermalLoad:
         self.ndof = 6 * int(cfg.n_nodes)
         self._elements = [(np.arange(6 * node0, 6 * node0 + 12), el) for _, node0, el in shaft_elements(cfg)]
         mats: dict[int, Any] = {id(el.material): el.material for _, el in self._elements}
-        self._units: list[tuple[Any, np.ndarray]] | None = None
+        self.units: list[tuple[Any, np.ndarray]] | None = None
         t1, t2 = self.reference_c + 100.0, self.reference_c + 50.0
         try:
             units = []
@@ -75,12 +82,12 @@ class ThermalLoad:
                     if id(el.material) == key:
                         u[idx] += el.thermal_node_load(t1, self.reference_c)
                 units.append((mat, u / (mat.youngs_modulus(t1) * (t1 - self.reference_c))))
-            self._units = units
+            self.units = units
             direct = self._direct(t2)
             if not np.linalg.norm(self(t2) - direct) <= 1e-12 * np.linalg.norm(direct):
-                self._units = None
+                self.units = None
         except ValueError:  # a material policy that refuses the check temperatures
-            self._units = None
+            self.units = None
 
     def _direct(self, temperature_c: float) -> np.ndarray:
         out = np.zeros(self.ndof)
@@ -90,11 +97,11 @@ class ThermalLoad:
 
     def __call__(self, temperature_c: float) -> np.ndarray:
         """The assembled thermal node load at ``temperature_c``, (ndof,)."""
-        if self._units is None:
+        if self.units is None:
             return self._direct(temperature_c)
         dt = float(temperature_c) - self.reference_c
         out = np.zeros(self.ndof)
-        for mat, u in self._units:
+        for mat, u in self.units:
             out += (mat.youngs_modulus(temperature_c) * dt) * u
         return out
 
@@ -251,3 +258,173 @@ def ramp_linear_model(
     lin.MinvF[:, 0] = sla.lu_solve(near.lu_M, f0)
     lin.bstar = np.array([mc.half_backlash for mc in system.meshes], float)
     return lin
+
+
+# ----------------------------------------------------------------------------------------------
+# kernel arrays of the ramp systems of one node as affine corrections (no map build per quantum)
+
+
+def _diff(a: Any, b: Any) -> Any:
+    """``b - a`` over the float arrays of a map (tuples and dataclasses recursed); None where equal.
+
+    Everything that is not a float array (ints, flags, the basis, dt) must be equal in ``a`` and ``b``.
+    """
+    if isinstance(a, np.ndarray):
+        if a.dtype.kind in "fc":
+            return None if np.array_equal(a, b) else b - a
+        if not np.array_equal(a, b):
+            raise ValueError("ramp span: an integer array of the kernel maps changed")
+        return None
+    if isinstance(a, tuple):
+        d = tuple(_diff(x, y) for x, y in zip(a, b, strict=True))
+        return d if any(x is not None for x in d) else None
+    if dataclasses.is_dataclass(a) and not isinstance(a, type):
+        out = {}
+        for f in dataclasses.fields(a):
+            if f.name in ("basis", "xrec"):
+                continue
+            x, y = getattr(a, f.name), getattr(b, f.name)
+            if x is None and y is None:
+                continue
+            d = _diff(x, y)
+            if d is not None:
+                out[f.name] = d
+        return out or None
+    if a != b:
+        raise ValueError("ramp span: a scalar of the kernel maps changed")
+    return None
+
+
+def _apply(a: Any, diffs: Sequence[tuple[float, Any]]) -> Any:
+    """``a + sum c d`` for the (coefficient, difference) pairs of :func:`_diff` (new arrays, aligned)."""
+    live = [(c, d) for c, d in diffs if d is not None]
+    if not live:
+        return a
+    if isinstance(a, np.ndarray):
+        out = aligned(a)
+        for c, d in live:
+            if c != 0.0:
+                out += c * d
+        return out
+    if isinstance(a, tuple):
+        return tuple(_apply(x, [(c, d[i]) for c, d in live]) for i, x in enumerate(a))
+    changes = {}
+    for name in {k for _, d in live for k in d}:
+        changes[name] = _apply(getattr(a, name), [(c, d.get(name)) for c, d in live])
+    if any(f.name == "xrec" for f in dataclasses.fields(a)):
+        changes["xrec"] = None  # rebuilt from the new arrays on first use
+    return dataclasses.replace(a, **changes)
+
+
+class RampSpan:
+    """The ramp systems around one basis-grid node ("near"), on one stepper, without a map build per
+    quantum.
+
+    The kernel arrays (``NewmarkStepper.map`` and ``.gear``) are linear in the static-load column and
+    in the mesh tables, jumps and b*; everything else is the node's. The static load of a ramp system
+    is the node's plus ``sum_k c_k u_k`` (``u_k`` the thermal-load vectors of :class:`ThermalLoad`
+    per material, ``c_k = E_k(T) (T - T_ref) - E_k(T_n) (T_n - T_ref)``), its tables the node's moved
+    by the fraction ``w`` toward a neighbouring node's (``lower`` below the node, ``upper`` above). So
+    per speed and step the span builds the maps A of the node, B_k of the node loaded by ``u_k`` more,
+    and C of the node with each neighbour's tables, and at each quantum sets ``A + sum_k c_k (B_k - A)
+    + w (C - A)`` on its stepper (microseconds): the map a rebuild would give (to round-off, tested),
+    while the modal state carries on in the same basis.
+    """
+
+    def __init__(
+        self,
+        near: tuple[AssembledSystem, NewmarkStepper],
+        lower: AssembledSystem | None,
+        upper: AssembledSystem | None,
+        thermal: ThermalLoad,
+        make_stepper: Callable[[AssembledSystem, LinearModel], NewmarkStepper],
+        effects: Sequence[object] = (),
+    ) -> None:
+        if thermal.units is None:
+            raise ValueError("RampSpan: the thermal load has no per-material form")
+        self.near_system, self.near = near
+        self.lower, self.upper = lower, upper
+        self.thermal = thermal
+        self.effects = tuple(effects)
+        self._make = make_stepper
+        self.stepper = self._new_stepper(self.near_system)
+        self._key: tuple[float, float, float | None] | None = None
+        self._base: tuple[Any, Any] | None = None
+        self._diffs: list[tuple[Any, Any]] = []
+        self._scales: list[float] = []
+
+    def _new_stepper(self, system: AssembledSystem) -> NewmarkStepper:
+        st = self._make(system, ramp_linear_model(self.near.lin, system, self.effects))
+        st.basis_source = self.near.basis  # the same state matrix: the node's bases
+        return st
+
+    def _coefficients(self, temperature_c: float) -> list[float]:
+        t_n = self.near_system.temperature_c
+        ref = self.thermal.reference_c
+        cs = [
+            (
+                mat.youngs_modulus(temperature_c) * (temperature_c - ref)
+                - mat.youngs_modulus(t_n) * (t_n - ref)
+            )
+            / sc
+            for (mat, _), sc in zip(self.thermal.units, self._scales, strict=True)  # type: ignore[arg-type]
+        ]
+        for side, other in ((-1.0, self.lower), (1.0, self.upper)):
+            if other is None:
+                continue
+            w = (temperature_c - t_n) / (other.temperature_c - t_n)
+            cs.append(w if w > 0.0 and side * (temperature_c - t_n) > 0.0 else 0.0)
+        return cs
+
+    def _prepare(self, omega: float, dt: float, cut: float | None, state: Any) -> None:
+        """Maps of the node, of each unit load added, of each neighbour's tables at (omega, dt)."""
+        ns = self.near_system
+        # each unit load scaled to the static load's norm: the difference of the two maps then keeps
+        # full precision (a bare u, ~1e-9 N per Pa C, vanished in the round-off of the node's load)
+        size = float(np.linalg.norm(ns.static_load)) or 1.0
+        units = [u for _, u in self.thermal.units]  # type: ignore[union-attr]
+        self._scales = [size / max(float(np.linalg.norm(u)), 1e-300) for u in units]
+        variants = [
+            dataclasses.replace(
+                ns, static_load=ns.static_load + sc * u, thermal_load=ns.thermal_load + sc * u
+            )
+            for sc, u in zip(self._scales, units, strict=True)
+        ]
+        nodes = (ns.temperature_c, ns.temperature_c)
+        for other in (self.lower, self.upper):
+            if other is not None:
+                meshes = tuple(
+                    _ramp_mesh(mn, mn, mf, 1.0, nodes) for mn, mf in zip(ns.meshes, other.meshes, strict=True)
+                )
+                variants.append(dataclasses.replace(ns, meshes=meshes))
+        maps = []
+        for system in [ns, *variants]:
+            st = self._new_stepper(system)
+            st.modal_cutoff_hz = cut
+            st.set_operating_point(omega, dt, state)
+            maps.append((st.map, st.gear))
+        self._base = maps[0]
+        self._diffs = [(_diff(maps[0][0], m[0]), _diff(maps[0][1], m[1])) for m in maps[1:]]
+        self._key = (omega, dt, cut)
+
+    def retarget(
+        self, system: AssembledSystem, omega: float, dt: float, cut: float | None, state: Any
+    ) -> tuple[NewmarkStepper, bool]:
+        """Set the span's stepper to the ramp system ``system`` (:func:`ramp_system` at a quantum
+        within half a grid step of the node) at speed omega, step dt and modal cut-off ``cut``;
+        ``state`` (a SolverState) is only read to build the maps. Returns the stepper and whether its
+        modal state carries on (True: it already ran this span at the same speed and step; False:
+        load the state into it)."""
+        if self._key != (omega, dt, cut):
+            self._prepare(omega, dt, cut, state)
+        st = self.stepper
+        carry = st.map is not None and st.map.basis.omega == omega and st.map.dt == dt
+        carry = carry and self._base is not None and st.map.basis is self._base[0].basis
+        coefs = self._coefficients(system.temperature_c)
+        base_map, base_gear = self._base  # type: ignore[misc]
+        st.map = _apply(base_map, [(c, d[0]) for c, d in zip(coefs, self._diffs, strict=True)])
+        st.gear = _apply(base_gear, [(c, d[1]) for c, d in zip(coefs, self._diffs, strict=True)])
+        st.system = system
+        st.lin = ramp_linear_model(self.near.lin, system, self.effects)
+        st.modal_cutoff_hz = cut
+        return st, carry
