@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from gear_rotor_sim.solver.newmark import LinearModel, NewmarkStepper, aligned, effect_columns
+from gear_rotor_sim.solver.newmark import LinearModel, NewmarkStepper, aligned, effect_columns, gear_map
 from gear_rotor_sim.system_data import AssembledSystem, MeshCoupling
 
 __all__ = [
@@ -390,19 +390,25 @@ class RampSpan:
             )
             for sc, u in zip(self._scales, units, strict=True)
         ]
-        nodes = (ns.temperature_c, ns.temperature_c)
-        for other in (self.lower, self.upper):
-            if other is not None:
-                meshes = tuple(
-                    _ramp_mesh(mn, mn, mf, 1.0, nodes) for mn, mf in zip(ns.meshes, other.meshes, strict=True)
-                )
-                variants.append(dataclasses.replace(ns, meshes=meshes))
         maps = []
         for system in [ns, *variants]:
             st = self._new_stepper(system)
             st.modal_cutoff_hz = cut
             st.set_operating_point(omega, dt, state)
             maps.append((st.map, st.gear))
+        # the tables enter the gear kernel's arrays only (the step map holds no table): the node's
+        # step map with each neighbour's tables
+        nodes = (ns.temperature_c, ns.temperature_c)
+        for other in (self.lower, self.upper):
+            if other is not None:
+                meshes = tuple(
+                    _ramp_mesh(mn, mn, mf, 1.0, nodes) for mn, mf in zip(ns.meshes, other.meshes, strict=True)
+                )
+                system = dataclasses.replace(ns, meshes=meshes)
+                lin = ramp_linear_model(self.near.lin, system, self.effects)
+                a_map, a_gear = maps[0]
+                gear = None if a_gear is None else gear_map(lin, a_map, self.stepper.specs)
+                maps.append((a_map, gear))
         self._base = maps[0]
         self._diffs = [(_diff(maps[0][0], m[0]), _diff(maps[0][1], m[1])) for m in maps[1:]]
         self._key = (omega, dt, cut)
