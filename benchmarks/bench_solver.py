@@ -316,7 +316,7 @@ def ramp_rtf(cfg: object, reference: bool) -> dict:
     import tempfile
 
     from gear_rotor_sim.simulator import TEMPERATURE_QUANTUM_C
-    from gear_rotor_sim.solver import newmark
+    from gear_rotor_sim.solver import basis_cache, newmark
     from gear_rotor_sim.solver.newmark import SPEED_QUANTUM_REL
 
     out: dict = {}
@@ -328,9 +328,11 @@ def ramp_rtf(cfg: object, reference: bool) -> dict:
                 r: dict = {}
                 for label in ("cold", "warm"):
                     newmark._BASIS_MEMO.clear()  # a new process: only the disk cache carries over
+                    basis_cache._RECENT.clear()
                     r[label], data = _ramp_once(cfg, target, dur)
                 if reference:
                     newmark._BASIS_MEMO.clear()
+                    basis_cache._RECENT.clear()
                     os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = "off"
                     grids = {"ramp_speed_quantum_rel": SPEED_QUANTUM_REL,
                              "ramp_temperature_quantum_c": TEMPERATURE_QUANTUM_C}  # fmt: skip

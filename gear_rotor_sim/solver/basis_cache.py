@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,9 @@ __all__ = ["MAX_CACHE_BYTES", "basis_key", "cache_dir", "cached_eigen_basis"]
 #: Size above which the oldest cached bases are removed, bytes.
 MAX_CACHE_BYTES = 512 * 1024 * 1024
 _FORMAT = "basis-v1"
+#: The last bases read or computed here, by key (simulators of one rig in one process share them).
+_RECENT: OrderedDict[str, Basis] = OrderedDict()
+_RECENT_SIZE = 8
 
 
 def cache_dir() -> Path | None:
@@ -112,12 +116,18 @@ def cached_eigen_basis(lin: LinearModel, omega: float, force_dense: bool = False
     directory = cache_dir()
     if directory is None or force_dense:
         return eigen_basis(lin, omega, force_dense)
-    path = directory / f"{basis_key(lin, omega, force_dense)}.npz"
-    if path.exists():
-        hit = _load(path, omega)
-        if hit is not None and hit.phi.shape[0] == lin.nstate:
-            return hit
-    b = eigen_basis(lin, omega, force_dense)
-    if not b.dense:
-        _store(directory, path, b)
+    key = basis_key(lin, omega, force_dense)
+    b = _RECENT.get(key)
+    if b is not None:
+        _RECENT.move_to_end(key)
+        return b
+    path = directory / f"{key}.npz"
+    b = _load(path, omega) if path.exists() else None
+    if b is None or b.phi.shape[0] != lin.nstate:
+        b = eigen_basis(lin, omega, force_dense)
+        if not b.dense:
+            _store(directory, path, b)
+    _RECENT[key] = b
+    if len(_RECENT) > _RECENT_SIZE:
+        _RECENT.popitem(last=False)
     return b
