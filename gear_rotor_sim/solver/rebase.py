@@ -433,4 +433,5 @@ class RampSpan:
         st.system = system
         st.lin = ramp_linear_model(self.near.lin, system, self.effects)
         st.modal_cutoff_hz = cut
+        st._reduced.clear()  # residual flexibilities hold the previous static-load column
         return st, carry
