@@ -567,6 +567,7 @@ class Simulator:
         self._systems.clear()
         self._spans.clear()
         self._nodes.clear()
+        self._thermal = None  # modify_config may change the materials
         _, stepper = self._system(self._tq_cur)
         self._sys_key = (self._tq_cur, False)
         t = self._raw_time

@@ -15,6 +15,8 @@ While the temperature ramps (docs/solver.md "Ramps") the Simulator uses three gr
   thermal node load (Eqs 9-11) and the interpolated mesh tables, jumps and b* (Eq 27, linear in T).
   The mesh force follows the tables whatever mean stiffness the linear part holds: the kernels
   compensate ``kbar delta + c_m delta'`` with the same ``kbar`` (docs/solver.md "Mesh law").
+  With the default assembly a :class:`RampSpan` per node sets these quanta on one stepper as
+  corrections of the node's kernel arrays, without a map build per quantum.
 
 What a ramp system holds at its node's value is the shafts' E*(T), nu(T) (3.4 % of stiffness over
 25-125 C for the carbon steel of Table 1) and c_m: at most half a basis-grid step. A first-order
