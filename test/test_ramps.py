@@ -154,9 +154,11 @@ def test_basis_cache_round_trip(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
     for name in ("lam", "phi", "kept"):
         assert np.array_equal(getattr(b1, name), getattr(b2, name))
     assert np.array_equal(b1.lu[0], b2.lu[0]) and (b1.scale, b1.n_forced) == (b2.scale, b2.n_forced)
-    files[0].write_bytes(b"not a basis")
-    basis_cache._RECENT.clear()
-    b3 = cached_eigen_basis(lin, omega)
-    assert np.array_equal(b3.lam, b1.lam)
+    good = files[0].read_bytes()
+    for damaged in (b"not a basis", good[: len(good) // 2]):  # not an npz; a truncated one
+        files[0].write_bytes(damaged)
+        basis_cache._RECENT.clear()
+        b3 = cached_eigen_basis(lin, omega)
+        assert np.array_equal(b3.lam, b1.lam)
     monkeypatch.setenv("GEAR_ROTOR_SIM_BASIS_CACHE", "off")
     assert cache_dir() is None

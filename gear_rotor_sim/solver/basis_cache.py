@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import zipfile
 from collections import OrderedDict
 from pathlib import Path
 
@@ -80,7 +81,7 @@ def _load(path: Path, omega: float) -> Basis | None:
                 float(z["scale"]),
                 int(z["n_forced"]),
             )
-    except (OSError, KeyError, ValueError):
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):  # a damaged file: recompute
         return None
 
 
