@@ -332,6 +332,25 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         + "."
     )
     add("")
+    for x in rd["readings"]:
+        ok = [PANEL_TITLES.get(k, k)[:3] for k in panels if _within(x["edge_errors_rpm"][k])]
+        late = [f"{lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"] if lab == "chaotic" and hi >= 11000]
+        add(
+            f"- {x['title']}: panels within +-700 rpm: {', '.join(ok) if ok else 'none'}; 25 C chaos "
+            f"above 11000 rpm on the coarse grid: {', '.join(late) if late else 'none'}."
+        )
+    add("")
+    add(
+        "A reading is adopted into `paper_sun2021_as_published` only if it brings all three panels "
+        "within +-700 rpm (it is meant to reproduce Fig 6, not one edge of one panel); "
+        + (
+            "none does, so the configuration keeps the Eq 32 reading alone and its Fig 6a band stays "
+            "the one above."
+            if not all_in
+            else f"{all_in[0]} does."
+        )
+    )
+    add("")
     add("25 C motion sequence per reading (coarse grid, runs shorter than 3 grid points absorbed):")
     add("")
     for x in rd["readings"]:
