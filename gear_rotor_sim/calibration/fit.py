@@ -50,7 +50,9 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
 from gear_rotor_sim.calibration.measurement import Measurement
+from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.residual import (
     Comparison,
     HousingSensor,
@@ -94,6 +96,10 @@ class FitSettings:
     max_effects: int = 3
     refine_steps: int = 3
     line_prominence: float = 4.0  # bearing defects: a characteristic envelope line >= 6 dB above the floor
+    #: tooth damage: its comb gain must be significant (beyond the BIC threshold and at least
+    #: ``min_family_share`` of the best family's gain) in ``min_comb_families`` sideband families
+    min_family_share: float = 0.02
+    min_comb_families: int = 3
 
 
 @dataclass
@@ -263,6 +269,9 @@ class Calibrator:
         Model-form tolerance of the mesh carriers from the reference record.
     baseline_sets : list of Effect, optional
         Baseline sets offered (default :func:`baseline_candidates` of the rig).
+    model_window : bool
+        Simulate whole hunting periods of the mesh instead of the record length
+        (:func:`~gear_rotor_sim.calibration.model_window.model_window_samples`; default True).
     """
 
     def __init__(
@@ -281,6 +290,7 @@ class Calibrator:
         baseline_source: str | None = None,
         carrier_tolerance: float | None = None,
         baseline_sets: Sequence[Effect] | None = None,
+        model_window: bool = True,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -302,6 +312,11 @@ class Calibrator:
             warmup_s,
             steps_per_mesh,
             dict(sensors or {}),
+            n_model=model_window_samples(
+                cfg, measurement.operating_point.speed_rpm, measurement.sample_rate_hz, measurement.n_samples
+            )
+            if model_window
+            else 0,
         )
         cfg = self.runner.cfg
         _check_channels(measurement, cfg)
@@ -739,6 +754,23 @@ class Calibrator:
         )
         if ok and float(np.sum(gain)) < rival_gain:
             ok = False
+        if ok:
+            # a damaged tooth raises the whole comb; one sideband family alone is a response component
+            # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
+            fams = comb_gain_by_family(self.cmp, (self._cur_feat, cur), (fit.feats, fit.score), own)
+            thr = self.fit.bic_threshold + math.log(self.n_total)
+            sig = significant_families(fams, thr, self.fit.min_family_share)
+            by_family = {j: round(v) for j, v in fams.items()}
+            self.log(f"  {e.label}: comb gain by sideband family {by_family}")
+            if fams and len(sig) < self.fit.min_comb_families:
+                shown = ", ".join(f"m z +- {j}: {fams[j]:.3g}" for j in sorted(fams, key=lambda j: -fams[j]))
+                self.notes.append(
+                    f"{e.label}: not claimed, its comb gain is significant in {len(sig)} sideband "
+                    f"famil{'y' if len(sig) == 1 else 'ies'} only ({shown}): components at one or two "
+                    "frequencies (a rattle subharmonic, a 1x eccentricity), not the broad comb of a damaged "
+                    "tooth"
+                )
+                ok = False
         # share of the comb's own excess it explains (its relative signature), used next to the
         # share of the whole excess: model-form misfit of the carriers must not mask a comb that
         # the tooth explains
@@ -1193,7 +1225,14 @@ class Calibrator:
             self._round_fits = fits
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
             chosen = None
-            for f in fits[:3]:
+            # the three best candidates are examined; one whose own signature is absent (a tooth comb
+            # in one sideband family, bearing lines below the threshold) does not take a place
+            examined = 0
+            for f in fits:
+                if examined >= 3:
+                    break
+                if f in admissible:
+                    examined += 1
                 share = max(f.explained, f.comb_explained if f in admissible else 0.0)
                 if f.delta_bic <= self.fit.bic_threshold:
                     break
@@ -1370,7 +1409,7 @@ class Calibrator:
         fs = self.m.sample_rate_hz
         lag = int(0.5 * fs / self.cmp.mesh_hz) if self.cmp.mesh_hz else int(0.002 * fs)
         return {
-            c: time_and_spectrum_errors(self.m.data[:, i], model[:, i], fs, max(lag, 1))
+            c: time_and_spectrum_errors(self.m.data[: model.shape[0], i], model[:, i], fs, max(lag, 1))
             for i, c in enumerate(self.cmp.names)
         }
 
@@ -1426,7 +1465,7 @@ def model_residual_spectra(
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Amplitude spectra of the time residual before and after, for the report."""
     fs = result.measurement.sample_rate_hz
-    y = result.measurement.data[:, channel]
+    y = result.measurement.data[: result.model_before.shape[0], channel]  # the model's window
     lag = int(0.5 * fs / result.comparison.mesh_hz) if result.comparison.mesh_hz else 1
     return {
         "before": residual_spectrum(
