@@ -173,6 +173,7 @@ class CalibrationResult:
     baseline_source: str = "measurement"
     not_claimed: list[FoundEffect] = field(default_factory=list)
     model_form: dict[str, float] = field(default_factory=dict)
+    baseline_reference: dict[str, Any] = field(default_factory=dict)
 
     @property
     def baseline_effects(self) -> list[Effect]:
@@ -211,6 +212,7 @@ class CalibrationResult:
             "baseline": {
                 "source": self.baseline_source,
                 "updates": [b.as_dict() for b in self.baseline_updates],
+                **({"reference": self.baseline_reference} if self.baseline_reference else {}),
             },
             "not_claimed": [e.as_dict() for e in self.not_claimed],
             "model_form_floor": self.model_form,
@@ -272,6 +274,9 @@ class Calibrator:
     model_window : bool
         Simulate whole hunting periods of the mesh instead of the record length
         (:func:`~gear_rotor_sim.calibration.model_window.model_window_samples`; default True).
+    baseline_reference : dict, optional
+        Summary of the reference record the held baseline comes from (reported as
+        ``baseline.reference``; :meth:`calibration.baseline.ReferenceBaseline.calibrator_kwargs`).
     """
 
     def __init__(
@@ -291,6 +296,7 @@ class Calibrator:
         carrier_tolerance: float | None = None,
         baseline_sets: Sequence[Effect] | None = None,
         model_window: bool = True,
+        baseline_reference: dict[str, Any] | None = None,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -334,6 +340,7 @@ class Calibrator:
         self.fit_baseline = baseline is None
         self.baseline_source = baseline_source or ("measurement" if baseline is None else "given")
         self.fixed_carrier_tolerance = carrier_tolerance
+        self.baseline_reference = dict(baseline_reference or {})
         #: baseline parameter sets offered (default: the library's for the rig)
         self.baseline_sets = list(baseline_candidates(cfg) if baseline_sets is None else baseline_sets)
         #: effects found before the baseline stage (temperature from the static content)
@@ -1403,6 +1410,7 @@ class Calibrator:
             self.baseline_source,
             not_claimed,
             model_form,
+            self.baseline_reference,
         )
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:

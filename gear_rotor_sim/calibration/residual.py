@@ -608,8 +608,12 @@ class Comparison:
                 self.d_order.append(cs)
                 self.v_order.append(vs)
             self._guard_zero_variance(measurement)
+        # transfer-slope abscissa: log10 of the frequency over the mesh frequency, held at the edges of
+        # the mesh-carrier band (harmonics 1..M) where the slope is fitted: a slope seen over half a
+        # decade of carriers is not extrapolated a decade down to the shaft orders
+        x_hi = float(np.log10(max(settings.mesh_harmonics, 1)))
         self._xf = [
-            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), -1.0, 1.0)
+            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), 0.0, x_hi)
             if self.mesh_hz
             else np.zeros(sh.orders.size)
             for sh in self.shafts
@@ -928,7 +932,8 @@ class Comparison:
 
     def order_gain(self, g: np.ndarray, c: int, s: int) -> np.ndarray | float:
         """Per-feature gain of channel ``c`` on shaft ``s``: ``g0 (1 + b x)``, ``x = log10(f / f_mesh)``
-        clipped to one decade either side (the smooth transfer correction; ``g`` is (nc,) or (nc, 2))."""
+        held within the mesh-carrier band ``[0, log10 M]`` where ``b`` is fitted (the smooth transfer
+        correction; ``g`` is (nc,) or (nc, 2))."""
         if g.ndim == 1:
             return g[c]
         return g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
