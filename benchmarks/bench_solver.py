@@ -57,7 +57,7 @@ from gear_rotor_sim.solver.newmark import (
     LinearModel,
     NewmarkStepper,
     eigen_basis,
-    fast_map,
+    gear_map,
     mesh_frequency_hz,
     parse_channels,
     quantize_speed_rpm,
@@ -250,7 +250,7 @@ def setup_times(cfg: object, repeats: int) -> dict:
     specs = parse_channels(system, Simulator.default_channels(system))
 
     def smap() -> None:
-        fast_map(lin, step_map(lin, basis, 1.0 / (32 * 1450.0), specs), specs)
+        gear_map(lin, step_map(lin, basis, 1.0 / (32 * 1450.0), specs), specs)
 
     out["step_map"] = timed(smap, repeats)
     return out

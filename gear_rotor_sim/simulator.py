@@ -51,6 +51,7 @@ from gear_rotor_sim.solver.newmark import (
     quantize_speed_rpm,
     static_equilibrium,
 )
+from gear_rotor_sim.solver.rebase import ThermalLoad, ramp_nodes, ramp_system
 from gear_rotor_sim.system_data import AssembledSystem
 
 __all__ = ["Effect", "SimulationDiverged", "Simulator", "StepContext"]
@@ -254,6 +255,9 @@ class Simulator:
         self._seg_out0 = 0  # output index of raw index 0 of the current raw segment
         self.locate_events = False  # set from the dt rule once k is known (below)
         self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
+        # ramp systems at the fine quanta between the grid nodes (solver/rebase.py), LRU
+        self._ramp_systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
+        self._thermal: ThermalLoad | None = None
         tq = self._tq(temperature_c)
         system = self._build(tq)
         names = list(channels) if channels is not None else self.default_channels(system)
@@ -270,6 +274,8 @@ class Simulator:
         self._angle0 = 0.0  # input-shaft angle at the start of the current speed ramp, rad
         self._temp = _Ramp(0.0, float(temperature_c), float(temperature_c), self.temperature_ramp)
         self._tq_cur = tq
+        self._sys_key = (tq, False)  # (fine quantum, ramp system) of the stepper in use
+        self._stepper = stepper
         self._k = self._k_required(speed_rpm, speed_rpm, system)
         self._seg_t0 = 0.0  # time of raw index 0 of the current raw segment
         self._raw = 0  # raw steps done in the segment
@@ -312,14 +318,39 @@ class Simulator:
     def _tq(temperature_c: float) -> float:
         return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
-    def _tq_now(self, temperature_c: float) -> float:
-        """Quantised temperature of the system in use: the coarse ramp grid while the temperature
-        ramps (a multiple of the fine quantum), the fine one at a constant set-point."""
-        if temperature_c == self._temp.target:
-            return self._tq(temperature_c)
+    def _system_at(self, tq: float, ramping: bool) -> tuple[AssembledSystem, NewmarkStepper]:
+        """System and stepper at the fine quantum ``tq``: the exact assembly at a constant set-point
+        and at the ramp grid's nodes, a ramp system (solver/rebase.py) between them while the
+        temperature ramps."""
         q = self.ramp_temperature_quantum_c
-        lo, hi = sorted((self._temp.v0, self._temp.target))  # the grid stays within the ramp
-        return self._tq(float(np.clip(np.round(temperature_c / q) * q, lo, hi)))
+        if not ramping or q <= TEMPERATURE_QUANTUM_C:
+            return self._system(tq)
+        lo, hi = sorted((self._tq(self._temp.v0), self._tq(self._temp.target)))  # nodes within the ramp
+        a, b = (self._tq(v) for v in ramp_nodes(tq, q, lo, hi))
+        if tq in (a, b):
+            return self._system(tq)
+        hit = self._ramp_systems.get(tq)
+        if hit is not None:
+            self._ramp_systems.move_to_end(tq)
+            return hit
+        sys_a, step_a = self._system(a)
+        sys_b, step_b = self._system(b)
+        node, node_stepper = (sys_a, step_a) if tq - a <= b - tq else (sys_b, step_b)
+        thermal = None
+        if self._builder is _default_builder:  # the exact thermal node load (else interpolated)
+            if self._thermal is None:
+                self._thermal = ThermalLoad(self.cfg)
+            thermal = self._thermal(tq)
+        system = ramp_system(node, sys_a, sys_b, tq, thermal)
+        stepper = NewmarkStepper(
+            system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events
+        )
+        stepper.share_bases(node_stepper)
+        hit = (system, stepper)
+        self._ramp_systems[tq] = hit
+        if len(self._ramp_systems) > 4:
+            self._ramp_systems.popitem(last=False)
+        return hit
 
     def _speed_quantum(self, speed_rpm: float) -> float:
         """Relative speed quantum of the basis in use: coarse while the speed ramps."""
@@ -367,7 +398,7 @@ class Simulator:
         if self.contact_loss_rate_hz is not None:  # the dt rule's contact-loss and resonance parts
             if self._loss_mode:
                 rate = max(rate, self.contact_loss_rate_hz)
-            stepper = self._systems[self._tq_cur][1]
+            stepper = self._stepper
             light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
             for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
                 for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
@@ -378,7 +409,7 @@ class Simulator:
     @property
     def _spm_now(self) -> float:
         """Integration steps per mesh period at the current speed."""
-        system = self._systems[self._tq_cur][0]
+        system = self._stepper.system
         f = mesh_frequency_hz(system, max(self.speed_rpm, DT_RULE_SPEED_FLOOR_RPM))
         return self._k * self.output_rate_hz / f if f > 0 else float("inf")
 
@@ -454,6 +485,7 @@ class Simulator:
         if temperature_c is not None:
             _check_temperature(temperature_c)
             self._system(self._tq(temperature_c))  # material policy check now, not mid-stream
+            self._ramp_systems.clear()  # their grid nodes belong to the previous ramp
             self._temp = _Ramp(t, float(self._temp.value(t)), float(temperature_c), self.temperature_ramp)
 
     def set_effects(self, effects: Sequence[Effect]) -> None:
@@ -470,7 +502,9 @@ class Simulator:
         self.effects = effects
         self.cfg = cfg
         self._systems.clear()
+        self._ramp_systems.clear()
         _, stepper = self._system(self._tq_cur)
+        self._sys_key = (self._tq_cur, False)
         t = self._raw_time
         dt = self.dt
         tt = np.array([t - dt, t, t + dt])
@@ -588,12 +622,14 @@ class Simulator:
         t_raw = self._raw_time
         # operating point at the chunk start (quantised)
         s_now = float(self._speed.value(t_raw))
-        tq = self._tq_now(float(self._temp.value(t_raw)))
-        if tq != self._tq_cur:
-            x_state = self._state
-            _, stepper = self._system(tq)
+        temp_now = float(self._temp.value(t_raw))
+        tq = self._tq(temp_now)
+        key = (tq, temp_now != self._temp.target)
+        if key != self._sys_key:
+            _, stepper = self._system_at(*key)
             self._tq_cur = tq
-            self._activate(stepper, x_state, s_now)
+            self._sys_key = key
+            self._activate(stepper, self._state, s_now)
         else:
             oq = self._sq(s_now) * 2.0 * np.pi / 60.0
             if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:
@@ -637,7 +673,7 @@ class Simulator:
         if self._raw % self._k:
             return
         t = self._raw_time
-        system = self._systems[self._tq_cur][0]
+        system = self._stepper.system
         s_now = float(self._speed.value(t))
         s_end = float(self._speed.value(t + 0.05))
         k_req = self._k_required(s_now, s_end, system)

@@ -10,7 +10,8 @@ What is compiled: a :class:`~gear_rotor_sim.simulator.Simulator` of the node's d
 (``paper_sun2021``) with every channel of the rig (the dispatch is by argument types, not sizes, so
 this covers any channel selection), run briefly at steady speed, at a speed where the teeth
 separate (event location), and through a speed ramp and a temperature ramp (the output FIR and the
-rebuilds); then the multi-mesh kernel on the two-stage example (``two_stage_example``).
+rebuilds); then the two-stage example (``two_stage_example``, two meshes through the same gear kernel,
+``solver/gear_kernel.py``).
 
 ``--if-changed`` skips the run when the stamp written by the last warm-up still matches: numba's and
 numpy's versions, the Python version, the CPU numba compiles for and the modification time and

@@ -19,7 +19,7 @@ from gear_rotor_sim.examples import paper_gearbox
 from gear_rotor_sim.gears import paper_gear_pair
 from gear_rotor_sim.materials import carbon_steel
 from gear_rotor_sim.simulator import Simulator
-from gear_rotor_sim.solver import mesh_kernel
+from gear_rotor_sim.solver import gear_kernel
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
     check_contact_loss_rate,
@@ -51,9 +51,21 @@ def tables() -> tuple:
 
 
 def _kernel_tables(arrays: tuple, f: float, strict: bool) -> tuple[float, np.ndarray]:
-    coef = np.zeros(arrays[1].shape[1])
-    k = mesh_kernel._tables_at(f, strict, *arrays, coef)
-    return k, coef
+    kf, cf, flag, kc, cc, jp, jk, jc = arrays
+    tabs = (
+        kf[None],
+        cf[None],
+        flag[None],
+        kc[None],
+        cc[None],
+        jp[None],
+        jk[None],
+        jc[None],
+        np.array([jp.size]),
+    )
+    coef = np.zeros((1, cf.shape[1]))
+    k = gear_kernel._tables_at(0, f, strict, tabs, coef)
+    return k, coef[0]
 
 
 def _direct(pair, phases: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -401,6 +401,9 @@ def test_sigterm_finalises_recording(experiment: Experiment) -> None:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
         assert summary is not None and summary.statistics is not None
+        from gear_rotor_sim.calibration.measurement import _recorded_rig
+
+        assert _recorded_rig(reader) == ("paper_sun2021", None)  # calibrate finds the rig (issue 15)
         for _schema, channel, _message, msg in reader.iter_decoded_messages(log_time_order=True):
             recorded.setdefault(channel.topic, []).append(msg)
     assert set(recorded) == {

@@ -24,7 +24,7 @@ def tree(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def test_kernel_sources_are_found() -> None:
-    assert {"solver/kernels.py", "solver/mesh_kernel.py", "solver/decimate.py"} <= set(
+    assert {"solver/kernels.py", "solver/gear_kernel.py", "solver/decimate.py"} <= set(
         warmup.kernel_sources()
     )
     assert "warmup.py" not in warmup.kernel_sources()
@@ -37,7 +37,7 @@ def test_stamp_follows_the_kernel_sources(tree: Path) -> None:
     (warmup.cache_dir() / warmup.STAMP_NAME).write_text(warmup.stamp() + "\n", encoding="ascii")
     assert warmup.is_current()
     # numba re-compiles when a source's modification time changes: so does the warm-up
-    src = tree / "solver" / "mesh_kernel.py"
+    src = tree / "solver" / "gear_kernel.py"
     st = src.stat()
     os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
     assert not warmup.is_current()

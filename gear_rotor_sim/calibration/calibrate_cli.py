@@ -64,6 +64,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="analyse only the first S seconds (default: all; CWRU files: 3 s)",
     )
     parser.add_argument(
+        "--start",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="analyse from S seconds into the record (default 0), e.g. to skip the start-up transient "
+        "of a recording that starts from rest (gear-rotor-sim record starts from static equilibrium)",
+    )
+    parser.add_argument(
         "--tolerance",
         type=float,
         default=None,
@@ -96,6 +104,9 @@ def run(args: argparse.Namespace) -> int:
         and cwru.is_cwru_file(path)
         and not path.with_suffix(".yaml").exists()
     )
+    if not (math.isfinite(args.start) and args.start >= 0.0):
+        print(f"gear-rotor-sim calibrate: --start: {args.start} is not a time >= 0 s", file=sys.stderr)
+        return EXIT_INVALID
     try:
         if use_cwru:
             from gear_rotor_sim.calibration.measurement import load_mat
@@ -105,13 +116,13 @@ def run(args: argparse.Namespace) -> int:
         else:
             m = load_measurement(path, args.description, nan_policy)
             duration = args.duration
-        if duration is not None:
-            m = m.segment(0.0, duration)
+        if duration is not None or args.start:
+            m = m.segment(args.start, duration)
     except (MeasurementError, ValueError) as exc:
         print(f"gear-rotor-sim calibrate: {exc}", file=sys.stderr)
         return EXIT_INVALID
     if args.gearbox:
-        m.gearbox = args.gearbox
+        m.gearbox, m.bearing_type = args.gearbox, None
     for issue in m.issues:
         log(f"note: {issue}")
     try:
@@ -124,10 +135,10 @@ def run(args: argparse.Namespace) -> int:
             ref: dict = {}
             if args.baseline:
                 href = load_measurement(Path(args.baseline), None, nan_policy)
-                if args.duration is not None:
-                    href = href.segment(0.0, args.duration)
+                if args.duration is not None or args.start:
+                    href = href.segment(args.start, args.duration)
                 if args.gearbox:
-                    href.gearbox = args.gearbox
+                    href.gearbox, href.bearing_type = args.gearbox, None
                 log(f"baseline: calibrating on {args.baseline}")
                 rb = Calibrator(
                     href,

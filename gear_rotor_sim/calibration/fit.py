@@ -242,7 +242,8 @@ class Calibrator:
     ----------
     measurement : Measurement
     cfg : RigConfig
-        Model of the machine (default ``load_config(measurement.gearbox)``).
+        Model of the machine (default ``load_config(measurement.gearbox)`` with the measurement's
+        ``bearing_type`` on every bearing when it names one).
     candidates : list of Effect, optional
         Default :func:`candidate_effects` for the rig, bearing defects at the observed bearings.
     settings, fit_settings : ResidualSettings, FitSettings
@@ -285,6 +286,8 @@ class Calibrator:
             from gear_rotor_sim.config import load_config
 
             cfg = load_config(measurement.gearbox)
+            if measurement.bearing_type:
+                cfg = cfg.with_bearing_type(measurement.bearing_type)
         self.m = measurement
         self.settings = settings or ResidualSettings()
         self.fit = fit_settings or FitSettings()
@@ -301,6 +304,7 @@ class Calibrator:
             dict(sensors or {}),
         )
         cfg = self.runner.cfg
+        _check_channels(measurement, cfg)
         observed = sorted(
             {int(c.split("_")[0][7:]) for c in measurement.model_channels if c.startswith("bearing")}
         )
@@ -1349,15 +1353,36 @@ class Calibrator:
         }
 
 
+def _check_channels(measurement: Measurement, cfg: Any) -> None:
+    """Every measured channel must be an output of the rig's model (e.g. ``mesh: 2`` needs a second
+    mesh): MeasurementError naming the file, the column and what the rig offers."""
+    from gear_rotor_sim.calibration.measurement import MeasurementError
+    from gear_rotor_sim.calibration.residual import cached_system
+    from gear_rotor_sim.simulator import Simulator
+
+    names = {n for n, _ in Simulator.available_channels(cfg, cached_system)}
+    for c in measurement.channels:
+        model = housing_source(c.model_channel) or c.model_channel
+        if model not in names:
+            raise MeasurementError(
+                f"{measurement.source}: column {c.column!r} ({c.model_channel}) is not an output of "
+                f"gearbox {measurement.gearbox!r}: it has {len(cfg.meshes)} mesh(es) (mesh: 1.."
+                f"{len(cfg.meshes)}), {len(cfg.bearings)} bearings and {cfg.n_nodes} nodes"
+            )
+
+
 def reported_parameters(effect: Effect) -> dict[str, Any]:
     """Fitted parameters plus the location that tells a finding apart: the wheel of a damaged tooth,
-    the tilted member of a gear misalignment."""
+    the tilted member of a gear misalignment, the 1-based mesh of every gear effect (the stage of a
+    multi-stage train)."""
     out: dict[str, Any] = dict(effect.parameters())
     if isinstance(effect, ToothDamage):
         out["wheel"] = effect.wheel
         out["tooth"] = int(effect.tooth)
     elif isinstance(effect, GearMisalignment):
         out["member"] = effect.member
+    if isinstance(effect, ToothDamage | GearMisalignment | GearEccentricity | ToothWear):
+        out["mesh"] = int(effect.mesh)
     return out
 
 

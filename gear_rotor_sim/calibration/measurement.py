@@ -98,7 +98,11 @@ TRANSLATIONS = ("x", "y", "z")
 ROTATIONS = ("theta_x", "theta_y", "theta_z")
 _SIDECAR_KEYS = {"sample_rate_hz", "operating_point", "gearbox", "channels", "description", "files", "format"}
 _OP_KEYS = {"speed_rpm", "temperature_c", "output_torque_nm"}
-_CHANNEL_KEYS = {"column", "key", "quantity", "unit", "bearing", "node", "direction", "name"}
+_CHANNEL_KEYS = {"column", "key", "quantity", "unit", "bearing", "node", "direction", "name", "mesh"}
+#: Quantities of one gear mesh: an optional ``mesh`` key (1-based, order of ``meshes:`` in the rig)
+#: selects the mesh of a multi-stage rig (model channels ``mesh{k}_dte``, ``mesh{k}_force``); without
+#: it they are the first mesh's (``dte``, ``mesh_force``).
+MESH_QUANTITIES = ("dynamic_transmission_error", "mesh_force")
 
 
 #: Largest magnitude of a measured sample per dimension (SI), beyond any vibration sensor's range:
@@ -145,6 +149,9 @@ class ChannelSpec:
         1-based bearing (paper numbering) or node (Fig 5 numbering).
     direction : str or None
         ``x``, ``y``, ``z`` (or ``theta_x`` ... for node quantities).
+    mesh : int or None
+        1-based mesh of a mesh quantity (:data:`MESH_QUANTITIES`) on a multi-stage rig; None: the
+        first mesh under the single-mesh names ``dte`` / ``mesh_force``.
     """
 
     column: str
@@ -153,14 +160,15 @@ class ChannelSpec:
     bearing: int | None = None
     node: int | None = None
     direction: str | None = None
+    mesh: int | None = None
 
     @property
     def model_channel(self) -> str:
         """Name of the simulator channel this measurement corresponds to (``docs/design.md``)."""
         if self.quantity == "dynamic_transmission_error":
-            return "dte"
+            return "dte" if self.mesh is None else f"mesh{self.mesh}_dte"
         if self.quantity == "mesh_force":
-            return "mesh_force"
+            return "mesh_force" if self.mesh is None else f"mesh{self.mesh}_force"
         if self.quantity == "bearing_force":
             return f"bearing{self.bearing}_f{self.direction}"
         if self.quantity == "housing_acceleration":
@@ -205,6 +213,8 @@ class Measurement:
         Config name or path of the model of the measured machine.
     issues : list of str
         Gaps, NaN runs and other findings reported while loading (never silently repaired).
+    bearing_type : str or None
+        Bearing type on every bearing of ``gearbox`` (recordings made with ``--bearing-type``).
     """
 
     source: str
@@ -215,6 +225,8 @@ class Measurement:
     operating_point: OperatingPoint
     gearbox: str
     issues: list[str] = field(default_factory=list)
+    #: bearing type put on every bearing of ``gearbox`` (a recording made with ``--bearing-type``)
+    bearing_type: str | None = None
 
     @property
     def n_samples(self) -> int:
@@ -258,6 +270,7 @@ class Measurement:
             self.operating_point,
             self.gearbox,
             [*self.issues, f"analysed samples {i0}..{i1 - 1}"],
+            self.bearing_type,
         )
 
     def as_block(self) -> SampleBlock:
@@ -344,9 +357,16 @@ def parse_channel(d: Any, src: str, path: str, column_key: str = "column") -> Ch
         allowed = TRANSLATIONS + (ROTATIONS if rot_dim else ())
         if direction not in allowed:
             raise _err(src, f"{path}.direction: {direction!r} is not one of {list(allowed)}")
+    mesh = None
+    if d.get("mesh") is not None:
+        if quantity not in MESH_QUANTITIES:
+            raise _err(src, f"{path}.mesh: only for the quantities {list(MESH_QUANTITIES)}, not {quantity!r}")
+        mesh = d["mesh"]
+        if isinstance(mesh, bool) or not isinstance(mesh, int) or mesh < 1:
+            raise _err(src, f"{path}.mesh: must be a 1-based integer (order of meshes), got {mesh!r}")
     dim = rot_dim if direction in ROTATIONS and rot_dim else trans_dim
     unit_factor(d["unit"], dim, src, f"{path}.unit")
-    return ChannelSpec(str(d[column_key]), quantity, str(d["unit"]).strip(), bearing, node, direction)
+    return ChannelSpec(str(d[column_key]), quantity, str(d["unit"]).strip(), bearing, node, direction, mesh)
 
 
 def parse_operating_point(d: Any, src: str, file_values: Mapping[str, float] | None = None) -> OperatingPoint:
@@ -748,6 +768,7 @@ def write_csv(
                     ("bearing", s.bearing),
                     ("node", s.node),
                     ("direction", s.direction),
+                    ("mesh", s.mesh),
                     ("unit", s.unit),
                 )
                 if v is not None
@@ -761,7 +782,7 @@ def write_csv(
 
 
 _NAME_RE = re.compile(
-    r"^(?:(?P<dte>dte)|(?P<mf>mesh_force)|bearing(?P<b>\d+)_f(?P<bd>[xyz])|"
+    r"^(?:(?P<dte>dte)|(?P<mf>mesh_force)|mesh(?P<mk>\d+)_(?P<mq>dte|force)|bearing(?P<b>\d+)_f(?P<bd>[xyz])|"
     r"node(?P<n>\d+)_(?P<kind>[va]?)(?P<nd>x|y|z|theta_x|theta_y|theta_z))$"
 )
 
@@ -771,13 +792,17 @@ def spec_from_model_channel(name: str, unit: str) -> ChannelSpec:
     m = _NAME_RE.match(name)
     if m is None:
         raise MeasurementError(
-            f"channel {name!r}: not a model channel name (dte, mesh_force, bearing<k>_f<x|y|z>, "
+            f"channel {name!r}: not a model channel name (dte, mesh_force, mesh<k>_dte, mesh<k>_force, "
+            "bearing<k>_f<x|y|z>, "
             "node<n>_<x|y|z|theta_*>, node<n>_v<...>, node<n>_a<...>)"
         )
     if m["dte"]:
         return ChannelSpec(name, "dynamic_transmission_error", unit)
     if m["mf"]:
         return ChannelSpec(name, "mesh_force", unit)
+    if m["mk"]:
+        quantity = "dynamic_transmission_error" if m["mq"] == "dte" else "mesh_force"
+        return ChannelSpec(name, quantity, unit, mesh=int(m["mk"]))
     if m["b"]:
         return ChannelSpec(name, "bearing_force", unit, bearing=int(m["b"]), direction=m["bd"])
     quantity = {"": "displacement", "v": "velocity", "a": "acceleration"}[m["kind"]]
@@ -829,6 +854,7 @@ def load_mcap(
                         arr,
                     )
                 )
+            recorded = _recorded_rig(reader)
     except Exception as exc:  # mcap raises several unrelated types for damaged files
         if isinstance(exc, MeasurementError):
             raise
@@ -873,20 +899,12 @@ def load_mcap(
                 continue
             try:
                 spec = spec_from_model_channel(name, unit)
-                parse_channel(
-                    {
-                        "column": name,
-                        "quantity": spec.quantity,
-                        "unit": unit,
-                        "bearing": spec.bearing,
-                        "node": spec.node,
-                        "direction": spec.direction,
-                    }
-                    if spec.bearing or spec.node
-                    else {"column": name, "quantity": spec.quantity, "unit": unit},
-                    src,
-                    f"{topic}.{name}",
-                )
+                entry: dict[str, Any] = {"column": name, "quantity": spec.quantity, "unit": unit}
+                if spec.bearing is not None or spec.node is not None:
+                    entry.update(bearing=spec.bearing, node=spec.node, direction=spec.direction)
+                if spec.mesh is not None:
+                    entry["mesh"] = spec.mesh
+                parse_channel(entry, src, f"{topic}.{name}")
             except MeasurementError as exc:
                 issues.append(f"topic {topic}: channel {name!r} skipped ({exc})")
                 continue
@@ -902,7 +920,7 @@ def load_mcap(
             f"speed varies in the recording ({speeds.min():.1f}..{speeds.max():.1f} rpm); median used"
         )
     op = OperatingPoint(float(np.median(speeds)), float(np.median(temps)), None)
-    gearbox = "paper_sun2021"
+    gearbox, bearing_type = recorded if recorded is not None else ("paper_sun2021", None)
     meta: dict[str, Any] | None = None
     if isinstance(sidecar, Mapping):
         meta = dict(sidecar)
@@ -915,9 +933,12 @@ def load_mcap(
     if meta is not None:
         _check_top(meta, src, ())
         if "gearbox" in meta:
-            gearbox = str(meta["gearbox"])
+            gearbox, bearing_type = str(meta["gearbox"]), None
         if "operating_point" in meta:
             op = parse_operating_point(meta["operating_point"], src)
+    elif recorded is not None:
+        bt = f", bearing type {bearing_type} on all bearings" if bearing_type else ""
+        issues.append(f"no sidecar: gearbox {gearbox!r}{bt} from the recording's metadata")
     else:
         issues.append("no sidecar: gearbox 'paper_sun2021' assumed")
     if op.speed_rpm <= 0:
@@ -928,7 +949,38 @@ def load_mcap(
         d = np.diff(np.concatenate([[1], covered.astype(np.int8)]))
         breaks = [int(i) for i in np.flatnonzero(d == -1)]
         data[~covered] = np.nan
-    return _finish(src, None, lo / fs, fs, data, tuple(specs), op, gearbox, nan_policy, issues, breaks)
+    out = _finish(src, None, lo / fs, fs, data, tuple(specs), op, gearbox, nan_policy, issues, breaks)
+    out.bearing_type = bearing_type
+    return out
+
+
+#: MCAP metadata record written by ``gear-rotor-sim record``, ``dataset`` and the node's recorder.
+RECORDING_METADATA = "gear_rotor_sim.recording"
+
+
+def _recorded_rig(reader: Any) -> tuple[str, str | None] | None:
+    """``(config, bearing_type)`` of the rig a recording was made with, from its
+    ``gear_rotor_sim.recording`` metadata (``custom_data.config``, ``custom_data.bearing_type``,
+    YAML scalars); None when the recording does not name it."""
+    try:
+        records = list(reader.iter_metadata())
+    except Exception:  # a recording without a summary section (cut by a crash): no metadata index
+        return None
+    for rec in records:
+        if rec.name != RECORDING_METADATA:
+            continue
+        config = rec.metadata.get("custom_data.config")
+        if not config:
+            return None
+        try:
+            name = yaml.safe_load(config)
+            bt = yaml.safe_load(rec.metadata.get("custom_data.bearing_type", "null"))
+        except yaml.YAMLError:
+            return None
+        if not isinstance(name, str) or not name:
+            return None
+        return name, (str(bt) if bt else None)
+    return None
 
 
 def load_mat(

@@ -313,6 +313,9 @@ class ShaftOrders:
     ratio: float
     orders: np.ndarray  # int orders
     teeth: int = 0  # teeth of the shaft's (first) gear: orders k * teeth are the mesh carriers
+    #: teeth of every gear on the shaft (a shaft of a multi-stage train carries one gear per stage):
+    #: the multiples of each are mesh carriers
+    carrier_teeth: tuple[int, ...] = ()
 
 
 def shaft_orders(
@@ -333,6 +336,7 @@ def shaft_orders(
         kmax = int(0.42 * sample_rate_hz / f)
         orders = set(range(1, low_orders + 1))
         teeth = 0
+        all_teeth: list[int] = []
         for m in cfg.meshes:
             z = (
                 m.pinion_teeth
@@ -342,11 +346,12 @@ def shaft_orders(
             if z is None:
                 continue
             teeth = teeth or int(z)
+            all_teeth.append(int(z))
             for h in range(1, mesh_harmonics + 1):
                 orders.update(range(h * z - sidebands, h * z + sidebands + 1))
         arr = np.array(sorted(o for o in orders if 1 <= o <= kmax), dtype=int)
         if arr.size:
-            out.append(ShaftOrders(shaft.name, float(ratios[s]), arr, teeth))
+            out.append(ShaftOrders(shaft.name, float(ratios[s]), arr, teeth, tuple(dict.fromkeys(all_teeth))))
     return out
 
 
@@ -871,11 +876,14 @@ class Comparison:
 
     # ---------------------------------------------------------------------------------- scoring
     def carriers(self, s: int) -> np.ndarray:
-        """Mask of the mesh-carrier orders (multiples of the shaft's tooth count) of shaft ``s``."""
+        """Mask of the mesh-carrier orders of shaft ``s``: multiples of the tooth count of any gear
+        on the shaft (one per stage on the intermediate shaft of a multi-stage train)."""
         sh = self.shafts[s]
-        if not sh.teeth:
-            return np.zeros(sh.orders.size, dtype=bool)
-        return sh.orders % sh.teeth == 0
+        teeth = sh.carrier_teeth or ((sh.teeth,) if sh.teeth else ())
+        mask = np.zeros(sh.orders.size, dtype=bool)
+        for z in teeth:
+            mask |= sh.orders % z == 0
+        return mask
 
     def set_carrier_tolerance(self, tol: float) -> None:
         """Model-form tolerance of the mesh carriers (estimated from the baseline fit)."""

@@ -297,8 +297,16 @@ class GearMisalignment(Effect):
         return check_mesh(cfg, self.mesh)
 
     def _static_force(self, system: Any) -> float:
+        """Static mesh force ``T_g / r_b`` of this mesh: the load torque referred to this mesh's gear
+        shaft through the speed ratios (power through a serial train, frictionless), so that on a
+        multi-stage rig each stage carries its own share (a single mesh: the load torque itself)."""
         m = system.meshes[self.mesh - 1]
-        torque = float(np.max(np.abs(np.asarray(system.static_load)[5::6])))
+        tz = np.abs(np.asarray(system.static_load)[5::6])
+        torque = float(np.max(tz))
+        ratios = getattr(system, "shaft_speed_ratios", None)
+        if ratios is not None and torque > 0:
+            load_shaft = int(system.shaft_of_node[int(np.argmax(tz))])
+            torque *= abs(float(ratios[load_shaft])) / abs(float(ratios[m.gear_shaft]))
         return torque / float(m.base_radius_gear) if m.base_radius_gear > 0 else 0.0
 
     def _shaft(self, system: Any) -> int:

@@ -51,7 +51,8 @@ def candidate_effects(
     Parameters
     ----------
     cfg : RigConfig
-        The rig; gear effects are offered only when it has a mesh.
+        The rig; gear effects are offered only when it has a mesh, on every mesh and both of its
+        wheels (labels ``...@mesh<k>`` from the second mesh on).
     bearing_geometry : BearingGeometry
         Geometry used for the bearing-defect frequencies.
     bearings : tuple of int, optional
@@ -72,13 +73,16 @@ def candidate_effects(
         misalignment_nodes = (cfg.drive.node0 + 1,)
     if bearings is None:
         bearings = tuple(range(1, len(cfg.bearings) + 1))
+    meshes = range(1, len(cfg.meshes) + 1)  # every mesh of a multi-stage rig, both wheels of each
+    wheels = ("pinion", "gear")
     if has_mesh:
-        out += [GearEccentricity(member="pinion"), GearEccentricity(member="gear")]
+        out += [GearEccentricity(member=w, mesh=k) for k in meshes for w in wheels]
     out += [MassUnbalance(node=n) for n in unbalance_nodes]
     out += [ShaftMisalignment(node=n) for n in misalignment_nodes]
     if has_mesh:
-        out += [ToothDamage(wheel="pinion"), ToothDamage(wheel="gear"), ToothWear()]
-        out += [GearMisalignment(member="pinion"), GearMisalignment(member="gear")]
+        out += [ToothDamage(wheel=w, mesh=k) for k in meshes for w in wheels]
+        out += [ToothWear(mesh=k) for k in meshes]
+        out += [GearMisalignment(member=w, mesh=k) for k in meshes for w in wheels]
     out.append(TemperatureOffset())
     for kind in ("outer", "inner", "ball"):
         out += [BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry) for b in bearings]

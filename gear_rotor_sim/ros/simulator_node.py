@@ -412,7 +412,13 @@ class SimulatorNode(Node):
                 self._streams,
                 qos=offered,
                 flush_period_s=flush_period_s,
-                custom_data=drivetrain_metadata(self._cfg),  # per-shaft speed ratios, mesh orders
+                # the rig (calibrate reads it when no sidecar names the gearbox), per-shaft speed
+                # ratios and mesh orders
+                custom_data={
+                    "config": str(self._values["model"]),
+                    "bearing_type": str(self._values["bearing_type"] or "null"),
+                    **drivetrain_metadata(self._cfg),
+                },
             )
             rec.add_topic(FAULTS_TOPIC, schemas.FAULT_STATE, qos=latched_qos())
             return rec

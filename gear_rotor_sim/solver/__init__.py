@@ -1,8 +1,9 @@
 """Nonlinear Newmark solver: exact modal trapezoidal map.
 
-Set-up in ``newmark``; compiled kernels in ``kernels`` (general) and ``mesh_kernel`` (single-mesh fast
-path with event location); the default dt rule in ``dt_rule``; constant-speed runs in ``steady``;
-anti-aliasing decimation in ``decimate``.
+Set-up in ``newmark``; compiled kernels in ``gear_kernel`` (any number of table meshes, full or
+reduced modal basis, event location) and ``kernels`` (general: dense fallback, per-step arrays); the
+default dt rule in ``dt_rule``; constant-speed runs in ``steady``; anti-aliasing decimation in
+``decimate``.
 """
 
 from gear_rotor_sim.solver.newmark import (

@@ -18,7 +18,7 @@ Mesh contact states (Eq 26 plus the set-valued closure at the boundary, see docs
 The dense fallback (defective or ill-conditioned eigenbasis) runs the same map with a real
 transition matrix ``T`` instead of the diagonal ``r``. This module holds the general kernel
 :func:`run_chunk` (any number of meshes, per-step arrays) and the mesh solve shared with the
-single-mesh fast path in :mod:`gear_rotor_sim.solver.mesh_kernel`.
+gear kernel in :mod:`gear_rotor_sim.solver.gear_kernel`.
 """
 
 from __future__ import annotations

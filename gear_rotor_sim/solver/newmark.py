@@ -33,7 +33,7 @@ import scipy.linalg as sla
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from gear_rotor_sim.solver import kernels, mesh_kernel, meshes_kernel
+from gear_rotor_sim.solver import gear_kernel, kernels
 from gear_rotor_sim.system_data import DOF_NAMES, AssembledSystem
 
 #: Relative speed quantum of the eigenbasis cache: the gyroscopic matrix is taken at the speed rounded
@@ -341,7 +341,7 @@ def eigen_basis(lin: LinearModel, omega: float, force_dense: bool = False) -> Ba
     """Diagonalise the state matrix at input speed ``omega`` (rad/s); fall back to dense if needed.
 
     Kept modes are ordered with the *forced* modes first: those that a force column other than the
-    static load reaches, or that the mesh deflection reads (see :func:`mesh_kernel.run_chunk_one_mesh`).
+    static load reaches, or that the mesh deflection reads (see :func:`gear_kernel.run_chunk_gear`).
     Memoised on the content of everything it reads (``_BASIS_MEMO``); bases are never modified.
     """
     a = lin.state_matrix(omega)
@@ -551,48 +551,7 @@ def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelS
     )
 
 
-@dataclass
-class FastMap:
-    """Arrays of :func:`mesh_kernel.run_chunk_one_mesh` (one mesh with tables, modal map).
-
-    Active force columns: 0 = ``u`` (the mean-mesh compensation column ``+V``, which also carries the
-    line-of-action part ``-V`` of the mesh force), 1..nb-1 = friction basis columns, then effects.
-    """
-
-    cols: np.ndarray  # LinearModel column index of each active column
-    c0r: np.ndarray
-    c0i: np.ndarray
-    swr: np.ndarray
-    swi: np.ndarray
-    n_forced: int
-    crd_r: np.ndarray
-    crd_i: np.ndarray
-    crv_r: np.ndarray
-    crv_i: np.ndarray
-    pq: np.ndarray
-    pq_static: np.ndarray
-    vd_r: np.ndarray  # (V Phi) rows of delta and delta' (sub-steps)
-    vd_i: np.ndarray
-    vv_r: np.ndarray
-    vv_i: np.ndarray
-    mur: np.ndarray  # h lambda per mode (sub-steps)
-    mui: np.ndarray
-    pmr: np.ndarray  # (10, nmode): (V Phi) * SW_q for delta, delta' per mesh column, then static
-    pmi: np.ndarray
-    cstack: np.ndarray  # (2 nmode + na, no): outputs = [z_r, z_i, beta] @ cstack + dfeed_static
-    dfeed_static: np.ndarray
-    tab_kf: np.ndarray  # the full tables and a flag per table interval that holds a jump
-    tab_cf: np.ndarray
-    jflag: np.ndarray
-    tab_k: np.ndarray  # continuous parts of the tables (jumps removed)
-    tab_c: np.ndarray
-    jump_p: np.ndarray  # phases in [0, 1) where the tables jump, and the jumps
-    jump_k: np.ndarray
-    jump_c: np.ndarray
-    mesh_par: np.ndarray
-
-
-OUTPUT_BLOCK_STEPS = 64  # steps per output matrix product in the fast kernel (fits L1/L2)
+OUTPUT_BLOCK_STEPS = 64  # steps per output matrix product in the gear kernel (fits L1/L2)
 
 
 def split_table_jumps(
@@ -630,7 +589,7 @@ def _jump_intervals(nt: int, jump_p: np.ndarray) -> np.ndarray:
 
 
 def _static_feed(mp: StepMap, specs: Sequence[ChannelSpec] | None) -> np.ndarray:
-    """Output offset of the static-load column (amplitude 1), per output column of the fast map."""
+    """Output offset of the static-load column (amplitude 1), per output column of the gear map."""
     rows = mp.dfeed[:, 0] if mp.dfeed.size else np.zeros(mp.outr.shape[0])
     if specs is None or rows.size == 0:
         return rows.copy()
@@ -643,133 +602,10 @@ def _static_feed(mp: StepMap, specs: Sequence[ChannelSpec] | None) -> np.ndarray
     return out
 
 
-def fast_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None = None) -> FastMap | None:
-    """The single-mesh fast-path arrays of a modal step map, or None if the path does not apply.
-
-    Applies when the system has exactly one mesh with uniform tables whose first force-basis column
-    is ``-V`` (Eq 22 / Eq 29 with the friction part in the other columns). With ``specs`` the output
-    matrix gives every channel in their order (``dte`` = V x and ``mesh_force`` = kbar delta +
-    cbar delta' - u are linear in the modal state and the column amplitudes too); without, only the
-    state-row channels.
-    """
-    if mp.dense or lin.nm != 1:
-        return None
-    mc = lin.system.meshes[0]
-    if mc.table_stiffness is None or mc.table_coefficients is None:
-        return None
-    nb = lin.nb
-    cb = lin.col_basis[0]
-    if np.any(cb[:nb] < 0) or not np.array_equal(lin.Fc[:, cb[0]], -lin.Fc[:, lin.col_comp[0]]):
-        return None
-    tab_c = np.ascontiguousarray(mc.table_coefficients, float).reshape(mc.table_stiffness.size, -1)
-    if nb > 4 or tab_c.shape[1] != nb or not np.all(tab_c[:, 0] == 1.0):
-        return None
-    cols = np.array([lin.col_comp[0], *cb[1:nb], *range(lin.col_eff0, lin.m)], dtype=np.int64)
-    nf = mp.basis.n_forced if mp.basis.n_forced >= 0 else mp.basis.lam.size
-    npad = mp.nmode
-    nk = mp.basis.lam.size
-
-    def pad(x: np.ndarray) -> np.ndarray:
-        y = np.zeros(npad, dtype=complex)
-        y[:nk] = x
-        return y
-
-    n = lin.nfree
-    vd = pad(lin.V[0] @ mp.basis.phi[:n])
-    vv = pad(lin.V[0] @ mp.basis.phi[n:])
-    mu = pad(mp.dt * mp.basis.lam)
-    nrow = mp.outr.shape[0]
-    rows = np.zeros((2 * npad + cols.size, nrow))
-    if nrow:
-        rows[:npad] = mp.outr.T
-        rows[npad : 2 * npad] = -mp.outi.T
-        rows[2 * npad :] = mp.dfeed[:, cols].T
-    if specs is None or nrow == 0:  # without state rows, DTE and mesh force come from the kernel
-        cstack = rows
-    else:
-        cstack = np.zeros((rows.shape[0], len(specs)))
-        o = 0
-        for i, sp in enumerate(specs):
-            if sp.kind == "row":
-                cstack[:, i] = rows[:, o]
-                o += 1
-            else:
-                cstack[:npad, i] = vd.real
-                cstack[npad : 2 * npad, i] = -vd.imag
-                if sp.kind == "force":  # F = kbar delta + c_m delta' - u
-                    cstack[:npad, i] = lin.kbar[0] * vd.real + lin.cmesh[0] * vv.real
-                    cstack[npad : 2 * npad, i] = -(lin.kbar[0] * vd.imag + lin.cmesh[0] * vv.imag)
-                    cstack[2 * npad, i] = -1.0
-    sw_act = mp.swr[cols] + 1j * mp.swi[cols]
-    pm = np.zeros((10, npad), dtype=complex)
-    for q in range(min(nb, 4)):
-        pm[2 * q] = vd * sw_act[q]
-        pm[2 * q + 1] = vv * sw_act[q]
-    c0 = 2.0 * (mp.swr[0] + 1j * mp.swi[0])
-    pm[8] = vd * c0
-    pm[9] = vv * c0
-    kc, cc, jp, jk, jc = split_table_jumps(np.asarray(mc.table_stiffness, float), tab_c, mc.table_jumps)
-    return FastMap(
-        cols,
-        aligned(2.0 * mp.swr[0]),
-        aligned(2.0 * mp.swi[0]),
-        aligned(mp.swr[cols]),
-        aligned(mp.swi[cols]),
-        int(nf),
-        aligned(mp.crr[0]),
-        aligned(mp.cri[0]),
-        aligned(mp.crr[1]),
-        aligned(mp.cri[1]),
-        aligned(mp.pq[:, cols]),
-        aligned(2.0 * mp.pq[:, 0]),
-        aligned(vd.real),
-        aligned(vd.imag),
-        aligned(vv.real),
-        aligned(vv.imag),
-        aligned(mu.real),
-        aligned(mu.imag),
-        aligned(pm.real),
-        aligned(pm.imag),
-        aligned(cstack),
-        aligned(_static_feed(mp, specs)),
-        aligned(np.asarray(mc.table_stiffness, float)),
-        aligned(tab_c),
-        _jump_intervals(mc.table_stiffness.size, jp),
-        aligned(kc),
-        aligned(cc),
-        jp,
-        jk,
-        jc,
-        # (kbar, cbar, c_m, b*, e0, phi, dt): the damping in the linear part is the mesh damping itself
-        np.array(
-            [lin.kbar[0], lin.cmesh[0], lin.cmesh[0], lin.bstar[0], mc.te_amplitude, mc.te_phase, mp.dt]
-        ),
-    )
-
-
-@dataclass
-class MeshesMap:
-    """Arrays of :func:`meshes_kernel.run_chunk_meshes` (any number of table meshes, modal map),
-    grouped by role as the kernel takes them (see its module docstring).
-
-    Active force columns: mesh i owns ``i nb .. i nb + nb - 1`` (``u_i`` = the compensation column
-    ``+V_i``, which also carries the line-of-action part ``-V_i F_i``, then the friction basis),
-    then the effects.
-    """
-
-    cols: np.ndarray  # LinearModel column index of each active column
-    modal: tuple  # (zr, zi) are filled per chunk; (rr, ri, c0r, c0i, swr, swi, crr, cri)
-    n_forced: int
-    mesh: tuple  # (pq, pqn, pq_static, pd, pv, mesh_par)
-    tables: tuple  # (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump)
-    cstack: np.ndarray
-    dfeed_static: np.ndarray
-
-
 def _output_stack(
     lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None, cols: np.ndarray, ucol: list[int]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Output matrix ``[z_r, z_i, beta] -> channels`` of the fast kernels and the static offsets.
+    """Output matrix ``[z_r, z_i, beta] -> channels`` of the gear kernel and the static offsets.
 
     With ``specs`` every channel in order (``dte_i = V_i x``, mesh force ``F_i = kbar_i delta_i + c_i
     delta_i' - u_i``, both linear in the modal state and the active column amplitudes; ``ucol[i]`` is
@@ -825,11 +661,35 @@ def _output_stack(
     return cstack, static_add
 
 
-def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None = None) -> MeshesMap | None:
-    """The multi-mesh fast-path arrays of a modal step map, or None if the path does not apply.
+@dataclass
+class GearMap:
+    """Arrays of :func:`gear_kernel.run_chunk_gear` (any number of table meshes, full or reduced modal
+    basis), grouped by role as the kernel takes them (see its module docstring).
+
+    Active force columns: mesh i owns ``i nb .. i nb + nb - 1`` (``u_i`` = the compensation column
+    ``+V_i``, which also carries the line-of-action part ``-V_i F_i``, then the friction basis),
+    then the effects.
+    """
+
+    cols: np.ndarray  # LinearModel column index of each active column
+    # (zr, zi) are filled per chunk; (rr, ri, c0r, c0i, swr, swi, crr, cri, vrr, vri, mur, mui, pmr, pmi)
+    modal: tuple
+    n_forced: int
+    mesh: tuple  # (pq, pqn, pq_static, rstat, pd, pv, mesh_par)
+    tables: tuple  # (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump)
+    cstack: np.ndarray
+    dfeed_static: np.ndarray
+
+
+def gear_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | None = None) -> GearMap | None:
+    """The gear kernel's arrays for a modal step map, or None if the kernel does not apply.
 
     Applies when every mesh has uniform tables of one common length and force basis width, whose first
-    basis column is ``-V`` and first coefficient 1 (Eq 22 / Eq 29).
+    basis column is ``-V`` and first coefficient 1 (Eq 22 / Eq 29). With ``specs`` the output matrix
+    gives every channel in their order (``dte_i = V_i x`` and ``F_i = kbar_i delta_i + c_i delta_i' -
+    u_i`` are linear in the modal state and the column amplitudes too); without, only the state rows.
+    With a reduced basis (``mp.resid``) delta, delta' and the outputs read the dropped modes' static
+    response to the new column amplitudes (``pqn``, ``rstat``, :func:`_output_stack`).
     """
     nm = lin.nm
     if mp.dense or nm == 0:
@@ -859,11 +719,13 @@ def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | Non
     pq = mp.pq[:, cols]
     pq_static = 2.0 * mp.pq[:, 0]
     pqn = pq.copy()  # response to the new amplitudes (with a reduced basis: plus the dropped modes')
+    rstat = np.zeros(2 * nm)
+    n = lin.nfree
     if mp.resid is not None:
-        n = lin.nfree
         rm = np.vstack([lin.V @ mp.resid[:n], lin.V @ mp.resid[n:]])  # (2 nm, m)
         pqn += rm[:, cols]
-        pq_static = pq_static + rm[:, 0]
+        rstat = rm[:, 0].copy()
+        pq_static = pq_static + rstat
     hd = pqn[:nm, ucol]
     hv = pqn[nm:, ucol]
     emat = np.eye(nm) - lin.kbar[:, None] * hd - lin.cmesh[:, None] * hv
@@ -896,23 +758,50 @@ def meshes_map(lin: LinearModel, mp: StepMap, specs: Sequence[ChannelSpec] | Non
         [[lin.kbar[i], lin.cmesh[i], lin.cmesh[i], lin.bstar[i], mc.te_amplitude, mc.te_phase]
          for i, mc in enumerate(meshes)]
     )  # fmt: skip
+    # sub-steps: mesh rows V Phi, h lambda, and the responses pm of the mesh rows to each mesh column
+    # and to the static increment (rows q 2 nm + r)
+    npad = mp.nmode
+    nk = mp.basis.lam.size
+    mrows = np.zeros((2 * nm, lin.nstate))
+    mrows[:nm, :n] = lin.V
+    mrows[nm:, n:] = lin.V
+    vrow = np.zeros((2 * nm, npad), dtype=complex)
+    vrow[:, :nk] = mrows @ mp.basis.phi
+    mu = np.zeros(npad, dtype=complex)
+    mu[:nk] = mp.dt * mp.basis.lam
+    sw_act = mp.swr[cols] + 1j * mp.swi[cols]
+    c0 = 2.0 * (mp.swr[0] + 1j * mp.swi[0])
+    nmc = nm * nb
+    pm = np.zeros(((nmc + 1) * 2 * nm, npad), dtype=complex)
+    for q in range(nmc + 1):
+        col = sw_act[q] if q < nmc else c0
+        pm[q * 2 * nm : (q + 1) * 2 * nm] = vrow * col[None, :]
     modal = (
         mp.rr,
         mp.ri,
-        aligned(2.0 * mp.swr[0]),
-        aligned(2.0 * mp.swi[0]),
+        aligned(c0.real),
+        aligned(c0.imag),
         aligned(mp.swr[cols]),
         aligned(mp.swi[cols]),
         mp.crr,
         mp.cri,
+        aligned(vrow.real),
+        aligned(vrow.imag),
+        aligned(mu.real),
+        aligned(mu.imag),
+        aligned(pm.real),
+        aligned(pm.imag),
     )
-    mesh = (aligned(pq), aligned(pqn), aligned(pq_static), aligned(hd @ einv), aligned(hv @ einv), mesh_par)
+    mesh = (
+        aligned(pq), aligned(pqn), aligned(pq_static), aligned(rstat), aligned(hd @ einv), aligned(hv @ einv),
+        mesh_par,
+    )  # fmt: skip
     tables = (
         aligned(tab_kf), aligned(tab_cf), jflag, aligned(tab_k), aligned(tab_c),
         jump_p, jump_k, jump_c, n_jump,
     )  # fmt: skip
     cstack, static_add = _output_stack(lin, mp, specs, cols, ucol)
-    return MeshesMap(
+    return GearMap(
         cols, modal, int(nf), mesh, tables, aligned(cstack), aligned(_static_feed(mp, specs) + static_add)
     )
 
@@ -1204,12 +1093,10 @@ class NewmarkStepper:
     cache_size : int
         Eigenbases kept per system (LRU over quantised speeds).
     disable_fast : bool
-        Always use the general kernel (tests of the fast single-mesh path against it).
+        Always use the general kernel (tests of the gear kernel against it).
     locate_events : bool
-        Single-mesh fast path: split steps at the mesh-table jumps and contact changes inside them
-        (docs/solver.md); False takes every event at the step instants, as the other kernels do.
-    meshes_kernel_for_one : bool
-        Run a single-mesh system through the multi-mesh kernel too (tests of one against the other).
+        Gear kernel: split steps at the mesh-table jumps and contact changes of any mesh inside them
+        (docs/solver.md); False takes every event at the step instants, as the general kernel does.
     """
 
     def __init__(
@@ -1221,7 +1108,6 @@ class NewmarkStepper:
         cache_size: int = 16,
         disable_fast: bool = False,
         locate_events: bool = False,
-        meshes_kernel_for_one: bool = False,
     ) -> None:
         self.system = system
         self.specs = list(specs)
@@ -1237,11 +1123,9 @@ class NewmarkStepper:
         self.ypred = np.zeros(2 * self.lin.nm)
         self.contact = np.zeros(self.lin.nm, dtype=np.int64)
         self.n_mesh_fail = 0
-        self.fast: FastMap | None = None
-        self.fastm: MeshesMap | None = None
+        self.gear: GearMap | None = None
         self.disable_fast = disable_fast
-        self.meshes_kernel = meshes_kernel_for_one
-        self.fuse_meshes = True  # multi-mesh kernel: fused pass for <= 2 meshes (False: tests)
+        self.fuse_meshes = True  # gear kernel: fused mode pass for <= 2 meshes (False: tests)
         self.modal_cutoff_hz: float | None = None  # modal reduction with static correction (None: full)
         self._reduced: dict[tuple[float, float], tuple[Basis, np.ndarray]] = {}
         self.locate_events = bool(locate_events)
@@ -1260,6 +1144,22 @@ class NewmarkStepper:
         else:
             self._bases.move_to_end(omega)
         return b
+
+    def share_bases(self, other: NewmarkStepper) -> None:
+        """Use (and fill) ``other``'s eigenbasis cache: the two must have the same linear part.
+
+        For the ramp systems of :mod:`gear_rotor_sim.solver.rebase`, which keep a grid node's M, K, C,
+        G and mean mesh terms and change only the static load and the mesh tables: the state matrix
+        is the node's bit for bit, so are its eigenbases. Raises ValueError if the linear parts differ.
+        """
+        a, b = self.lin, other.lin
+        same = a.nfree == b.nfree and all(
+            np.array_equal(getattr(a, k), getattr(b, k)) for k in ("M", "MinvK", "MinvC", "MinvG", "V")
+        )
+        same = same and np.array_equal(a.MinvF[:, 1:], b.MinvF[:, 1:])  # the forced-mode order
+        if not same:
+            raise ValueError("share_bases: the linear parts differ (the eigenbases would not be exact)")
+        self._bases = other._bases
 
     def set_operating_point(self, omega: float, dt: float, state: SolverState) -> None:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
@@ -1283,15 +1183,9 @@ class NewmarkStepper:
                 basis, resid = hit
             self.map = step_map(self.lin, basis, dt, self.specs)
             self.map.resid = resid
-            self.fast = self.fastm = None
-            if not self.disable_fast:
-                if self.lin.nm == 1 and not self.meshes_kernel and resid is None:
-                    self.fast = fast_map(self.lin, self.map, self.specs)
-                if self.fast is None:
-                    self.fastm = meshes_map(self.lin, self.map, self.specs)
-            if resid is not None and self.fastm is None:  # only the multi-mesh kernel takes it
+            self.gear = None if self.disable_fast else gear_map(self.lin, self.map, self.specs)
+            if resid is not None and self.gear is None:  # only the gear kernel takes a reduced basis
                 self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
-                self.fastm = None if self.disable_fast else meshes_map(self.lin, self.map, self.specs)
         self.load_state(state)
 
     def _beta_of(self, st: SolverState) -> np.ndarray:
@@ -1324,11 +1218,8 @@ class NewmarkStepper:
             self.zi[: z.size] = z.imag
         beta = self._beta_of(st)
         self.beta_prev = aligned(beta)
-        if self.fast is not None:
-            self.beta_act = aligned(beta[self.fast.cols])
-            self.beta_act[0] -= st.coef[0, 0] * st.force[0]  # u also carries the -V part
-        elif self.fastm is not None:
-            self.beta_act = aligned(beta[self.fastm.cols])
+        if self.gear is not None:
+            self.beta_act = aligned(beta[self.gear.cols])
             for i in range(lin.nm):
                 self.beta_act[i * lin.nb] -= st.coef[i, 0] * st.force[i]  # u_i also carries -V_i F_i
         self.ypred = aligned((mp.crr @ self.zr - mp.cri @ self.zi) if lin.nm else np.zeros(0))
@@ -1388,10 +1279,8 @@ class NewmarkStepper:
         mp = self.map
         assert mp is not None
         lin = self.lin
-        if self.fast is not None:
-            return self._run_fast(t, angle, speed, st, bound)
-        if self.fastm is not None:
-            return self._run_meshes(t, angle, speed, st, bound)
+        if self.gear is not None:
+            return self._run_gear(t, angle, speed, st, bound)
         kt, et, edt, coef, ampl = excitation(lin, t, angle, speed, self.effects)
         n = kt.shape[0]
         no = len(self.row_index)
@@ -1458,81 +1347,13 @@ class NewmarkStepper:
         st.x = self.physical_x(st)
         return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
-    def _run_fast(
+    def _run_gear(
         self, t: np.ndarray, angle: np.ndarray, speed: np.ndarray, st: SolverState, bound: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-        """:meth:`run` through :func:`mesh_kernel.run_chunk_one_mesh` (one mesh, tables, modal map)."""
-        fm_ = self.fast
-        assert fm_ is not None
-        lin = self.lin
-        system = self.system
-        mc = system.meshes[0]
-        n = t.size - 2
-        known = slice(0, n + 1)  # the carried step and the new steps
-        ratio = abs(float(system.shaft_speed_ratios[mc.pinion_shaft]))
-        cyc = (mc.pinion_teeth * ratio / (2.0 * np.pi)) * angle[known]
-        phase = cyc - np.floor(cyc)
-        prate = (mc.pinion_teeth * ratio / (2.0 * np.pi)) * speed[known]
-        empty = np.zeros(0)
-        kfac = te = ted = empty
-        ampl_k = np.zeros((n + 1, lin.ne))
-        if self.effects:
-            # effect inputs on the carried step too (sub-steps interpolate between grid steps)
-            t_e = np.concatenate([[2 * t[0] - t[1]], t])
-            a_e = np.concatenate([[2 * angle[0] - angle[1]], angle])
-            s_e = np.concatenate([[speed[0]], speed])
-            kt_e, et_e, edt_e, _, ampl_k = _effect_arrays(lin, t_e, a_e, s_e, self.effects)
-            kfac, te, ted = kt_e[:, 0], et_e[:, 0], edt_e[:, 0]
-        ampl = ampl_k[1:]
-        all_in_gemm = fm_.cstack.shape[1] == len(self.specs)
-        out = np.empty((n, fm_.cstack.shape[1]))  # every channel in order, or none (see fast_map)
-        dte = np.empty((n, 1))
-        dted = np.empty((n, 1))
-        fm = np.empty((n, 1))
-        states = np.empty((n, 1), dtype=np.int8)
-        kt = np.empty(n)
-        et = np.empty(n)
-        edt = np.empty(n)
-        coef = np.empty((n, lin.nb))
-        if self._hbuf.shape[1] != fm_.cstack.shape[0]:
-            self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, fm_.cstack.shape[0]))
-        mcarry = np.array([st.delta[0], st.delta_dot[0], st.force[0]])
-        status, step, nfail, nsub = mesh_kernel.run_chunk_one_mesh(
-            self.zr, self.zi, self.map.rr, self.map.ri, fm_.c0r, fm_.c0i, fm_.swr, fm_.swi, fm_.n_forced,
-            fm_.crd_r, fm_.crd_i, fm_.crv_r, fm_.crv_i, fm_.pq, fm_.pq_static,
-            fm_.vd_r, fm_.vd_i, fm_.vv_r, fm_.vv_i, fm_.mur, fm_.mui, fm_.pmr, fm_.pmi,
-            fm_.cstack, fm_.dfeed_static, self._hbuf,
-            fm_.tab_kf, fm_.tab_cf, fm_.jflag, fm_.tab_k, fm_.tab_c, fm_.jump_p, fm_.jump_k, fm_.jump_c,
-            fm_.mesh_par, self.locate_events, phase, prate,
-            np.ascontiguousarray(kfac), np.ascontiguousarray(te), np.ascontiguousarray(ted),
-            np.ascontiguousarray(ampl_k), self.beta_act, self.ypred, self.contact, mcarry, bound,
-            out, dte, dted, fm, states, kt, et, edt, coef,
-        )  # fmt: skip
-        self.n_substeps += nsub
-        self.n_mesh_fail += nfail
-        _check_chunk_status(status, float(t[1 + step]), float(speed[1 + step]), system.temperature_c, bound)
-        ch = out if all_in_gemm else _mesh_channels(self.specs, dte, fm, single_mesh=True)
-        if n:
-            st.delta = dte[-1].copy()
-            st.delta_dot = dted[-1].copy()
-            st.force = fm[-1].copy()
-            st.coef = coef[-1:].copy()
-            st.ampl = ampl[-1].copy()
-            st.contact = self.contact.copy()
-            st.angle = float(angle[-2])
-            st.time = float(t[-2])
-        st.x = self.physical_x(st)
-        # keep the general-kernel carry consistent (a later switch of path or basis reloads from st)
-        exc = (kt[:, None], et[:, None], edt[:, None], coef[:, None, :], ampl)
-        return ch, dte, dted, fm, states, exc
-
-    def _run_meshes(
-        self, t: np.ndarray, angle: np.ndarray, speed: np.ndarray, st: SolverState, bound: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-        """:meth:`run` through :func:`meshes_kernel.run_chunk_meshes` (table meshes, modal map)."""
-        fm_ = self.fastm
+        """:meth:`run` through :func:`gear_kernel.run_chunk_gear` (table meshes, modal map)."""
+        gm = self.gear
         mp = self.map
-        assert fm_ is not None and mp is not None
+        assert gm is not None and mp is not None
         lin = self.lin
         system = self.system
         nm = lin.nm
@@ -1549,14 +1370,15 @@ class NewmarkStepper:
         kfac = te = ted = none
         ampl_k = np.zeros((n + 1, lin.ne))
         if self.effects:
+            # effect inputs on the carried step too (sub-steps interpolate between grid steps)
             t_e = np.concatenate([[2 * t[0] - t[1]], t])
             a_e = np.concatenate([[2 * angle[0] - angle[1]], angle])
             s_e = np.concatenate([[speed[0]], speed])
             kfac, te, ted, _, ampl_k = _effect_arrays(lin, t_e, a_e, s_e, self.effects)
             kfac, te, ted = (np.ascontiguousarray(a) for a in (kfac, te, ted))
         ampl_k = np.ascontiguousarray(ampl_k)
-        all_in_gemm = fm_.cstack.shape[1] == len(self.specs)
-        out = np.empty((n, fm_.cstack.shape[1]))
+        all_in_gemm = gm.cstack.shape[1] == len(self.specs)
+        out = np.empty((n, gm.cstack.shape[1]))  # every channel in order, or none (see gear_map)
         dte = np.empty((n, nm))
         dted = np.empty((n, nm))
         fm = np.empty((n, nm))
@@ -1565,19 +1387,25 @@ class NewmarkStepper:
         et = np.empty((n, nm))
         edt = np.empty((n, nm))
         coef = np.empty((n, nm, lin.nb))
-        if self._hbuf.shape[1] != fm_.cstack.shape[0]:
-            self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, fm_.cstack.shape[0]))
-        status, step, nfail = meshes_kernel.run_chunk_meshes(
-            (self.zr, self.zi, *fm_.modal),
-            fm_.n_forced,
-            fm_.mesh,
-            fm_.tables,
+        if self._hbuf.shape[1] != gm.cstack.shape[0]:
+            self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, gm.cstack.shape[0]))
+        mcarry = np.ascontiguousarray(
+            np.array([st.delta, st.delta_dot, st.force], dtype=float).reshape(3, nm)
+        )
+        status, step, nfail, nsub = gear_kernel.run_chunk_gear(
+            (self.zr, self.zi, *gm.modal),
+            gm.n_forced,
+            gm.mesh,
+            gm.tables,
             (phase, prate, kfac, te, ted, ampl_k),
-            (self.beta_act, self.ypred, self.contact),
-            (fm_.cstack, fm_.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef),
+            (self.beta_act, self.ypred, self.contact, mcarry),
+            (gm.cstack, gm.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef),
+            float(mp.dt),
+            bool(self.locate_events),
             bound,
             self.fuse_meshes,
         )
+        self.n_substeps += nsub
         self.n_mesh_fail += nfail
         _check_chunk_status(status, float(t[1 + step]), float(speed[1 + step]), system.temperature_c, bound)
         ch = out if all_in_gemm else _mesh_channels(self.specs, dte, fm, single_mesh=False)

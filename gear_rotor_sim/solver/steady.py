@@ -64,6 +64,7 @@ def simulate_steady(
     chunk_steps: int = 65536,
     locate_events: bool | None = None,
     contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
+    modal_cutoff_hz: float | None = None,
 ) -> tuple[SteadyResult, SolverState]:
     """Constant-speed run with ``dt = T_mesh / N`` exactly (Poincare-ready), N by the dt rule.
 
@@ -91,6 +92,9 @@ def simulate_steady(
         The dt rule (:func:`rule_steps_per_mesh`): once the teeth separate, the run switches to at
         least this many steps per second with events located, for the rest of the call; the recording
         restarts if it had begun, so the recorded part has one dt. None: ``steps_per_mesh`` throughout.
+    modal_cutoff_hz : float or None
+        Modal reduction with static correction above this frequency (Hz; docs/solver.md, "Modal
+        reduction"); None: the full model.
 
     Returns
     -------
@@ -112,6 +116,7 @@ def simulate_steady(
         return rule_locate_events(n, contact_loss) if locate_events is None else bool(locate_events)
 
     stepper = NewmarkStepper(system, specs, effects)
+    stepper.modal_cutoff_hz = None if modal_cutoff_hz is None else float(modal_cutoff_hz)
     st = static_equilibrium(system, effects) if initial_state is None else initial_state.copy()
     period = 1.0 / f_mesh
     omega = speed_rpm * 2.0 * np.pi / 60.0

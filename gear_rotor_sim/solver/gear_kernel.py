@@ -1,0 +1,1243 @@
+"""The compiled gear kernel (numba): any number of meshes, located events, full or reduced modal basis.
+
+:func:`run_chunk_gear` advances the exact modal Newmark map of :mod:`.kernels` for a system with one
+or more meshes whose stiffness, force coefficients and transmission error are looked up from tables
+inside the loop, the static load as a constant modal increment, the force columns applied to the
+*forced* modes only and the outputs formed by blocks of matrix products. The basis may be the full
+one or a reduced one (``newmark.reduce_basis``) whose dropped modes follow the excitation
+quasi-statically (residual flexibility, ``newmark.residual_flexibility``): delta, delta' and every
+output then read the dropped modes' static part through the new column amplitudes.
+
+With ``locate`` a step that contains a table jump of any mesh (tooth-pair change, pitch point) or a
+contact change of any mesh is integrated as Newmark sub-steps split at the event
+(:func:`_event_step`; docs/solver.md, "Events inside a step").
+
+Hot path: the regular step is written out in the loop, with calls only on rare paths (a table
+interval holding a jump, an event step, an active set that does not settle) or with scalar
+arguments: every array handed to a function inside the loop, inlined or not, costs a reference
+count increment and decrement per step (docs/solver.md, "One kernel").
+
+The arrays are passed grouped by role, as tuples:
+
+``modal``   (zr, zi, rr, ri, c0r, c0i, swr, swi, crr, cri, vrr, vri, mur, mui, pmr, pmi): modal
+            state (updated), diagonal map ``r``, static increment ``c0``, force-column responses
+            ``SW`` (na, nmode), mesh prediction rows ``(V Phi) r`` (2 nm, nmode: delta rows, then
+            delta' rows); for the sub-steps the mesh rows ``V Phi`` (2 nm, nmode), ``h lambda`` per
+            mode and the responses ``pm = (V Phi)_r * SW_q`` (row ``q 2 nm + r`` for the mesh columns
+            q < nm nb, then ``q = nm nb`` the static increment).
+``mesh``    (pq, pqn, pq_static, rstat, pd, pv, mesh_par): responses of delta, delta' (2 nm, na)
+            to the carried and to the new column amplitudes (equal for the full basis; with a reduced
+            one ``pqn`` adds the dropped modes' static response), to the static load (full step),
+            the dropped modes' static response to the static load alone ``rstat`` (2 nm,);
+            ``pd``, ``pv`` (nm, nm) the elimination of the mean-mesh compensation on a full step;
+            ``mesh_par`` (nm, 6) = (kbar, cbar, c_m, b*, e0, phi_te).
+``tables``  (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump): per mesh, the
+            full tables (nm, nt) / (nm, nt, nb), the flag of the intervals holding a jump, the
+            continuous parts and the jumps (nm, nj) / (nm, nj, nb), ``n_jump`` (nm,) jumps per mesh
+            (:func:`newmark.split_table_jumps`).
+``exc``     (phase, phase_rate, kfac, te_add, ted_add, ampl): (n + 1, nm) mesh phases in [0, 1) and
+            their rates (cycles/s), effect stiffness factors, added TE and its rate ((0, nm) if none)
+            and effect force amplitudes (n + 1, ne); index 0 the carried step.
+``carry``   (beta_prev, ypred, state, mcarry): column amplitudes, mesh predictions, contact states,
+            (3, nm) delta, delta', F at the carried step (all updated).
+``outs``    (cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt, et, edt, coef).
+
+Active columns: mesh i owns ``i nb .. i nb + nb - 1`` (``u_i`` = compensation ``+V_i`` carrying the
+line-of-action part ``-V_i F_i`` too, then the friction basis), effects from ``nm nb``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from gear_rotor_sim.solver.kernels import (
+    _FM,
+    _MAX_ACTIVE_SET_ITER,
+    STATUS_BOUND,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    _natural_state,
+    _solve_small,
+    mesh_solve,
+)
+
+_MAX_PIECES = 24
+#: A jump closer than this fraction of a step to a step boundary is taken at that boundary (no
+#: sub-step of zero length; with dt = T_mesh / s the phase-0 jump falls on grid points).
+_EVENT_SNAP = 1e-9
+
+
+# ----------------------------------------------------------------------------------------------
+# per-mesh physics (scalar arguments, or rare paths)
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _tables_at(
+    i: int,
+    f: float,
+    strict: bool,
+    tables: tuple,
+    coef: np.ndarray,
+) -> float:
+    """Stiffness (returned) and force coefficients (into ``coef[i]``) of mesh ``i`` at cycle fraction
+    ``f`` in [0, 1].
+
+    On a table interval without a jump (``jflag == 0``) the full tables are interpolated linearly;
+    otherwise, and for ``strict`` (the left limit at a jump phase; at the period wrap ``f = 1``), the
+    continuous parts plus the jumps through the periodic steps ``[f >= p] - f``
+    (``newmark.split_table_jumps``). Right-continuous.
+    """
+    tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump = tables
+    nt = tab_k.shape[1]
+    nb = tab_c.shape[2]
+    x = f * nt
+    i0 = int(np.floor(x))
+    fr = x - i0
+    i0 = i0 % nt
+    i1 = i0 + 1
+    if i1 == nt:
+        i1 = 0
+    if jflag[i, i0] == 0 and not strict:
+        for j in range(nb):
+            coef[i, j] = tab_cf[i, i0, j] + fr * (tab_cf[i, i1, j] - tab_cf[i, i0, j])
+        return tab_kf[i, i0] + fr * (tab_kf[i, i1] - tab_kf[i, i0])
+    k = tab_k[i, i0] + fr * (tab_k[i, i1] - tab_k[i, i0])
+    for j in range(nb):
+        coef[i, j] = tab_c[i, i0, j] + fr * (tab_c[i, i1, j] - tab_c[i, i0, j])
+    for q in range(n_jump[i]):
+        p = jump_p[i, q]
+        saw = (1.0 if (f > p or (f == p and not strict)) else 0.0) - f
+        k += jump_k[i, q] * saw
+        for j in range(nb):
+            coef[i, j] += jump_c[i, q, j] * saw
+    return k
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mesh_solve_one(
+    s: int, dm0: float, dmd0: float, am: float, bm: float, k: float, c: float, b: float
+) -> tuple[int, float]:
+    """One mesh: the consistent contact state and force, by the active set of ``kernels.mesh_solve``.
+
+    ``delta_m = dm0 + am F``, ``delta_m' = dmd0 + bm F``. The same states, force laws and tolerances
+    as ``kernels._solve_states`` / ``_check_states`` for ``nm = 1``; returns state -9 when the
+    iteration does not settle (the caller then falls back to the general solver).
+    """
+    for _ in range(_MAX_ACTIVE_SET_ITER):
+        if s == 2 or s == -2:
+            sg = 1.0 if s == 2 else -1.0
+            f = (k * (dm0 - sg * b) + c * dmd0) / (1.0 - k * am - c * bm)  # Eq 25 in contact
+        elif s == 0:
+            f = 0.0
+        else:
+            sg = 1.0 if s == 1 else -1.0
+            f = (sg * b - dm0) / am  # pinned at delta_m = +-b*
+        dm = dm0 + am * f
+        dmd = dmd0 + bm * f
+        tol_d = 1e-12 * (abs(b) + abs(dm)) + 1e-20
+        tol_f = 1e-12 * (abs(f) + abs(c * dmd)) + 1e-20
+        ns = _natural_state(s, dm, dmd, f, c, b, tol_d, tol_f)
+        if ns == s:
+            return s, f
+        s = ns
+    return -9, 0.0
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
+def _state_force(s: int, dm: float, dmd: float, k: float, c: float, b: float, f_now: float) -> float:
+    """Eq 25 in contact state ``s`` (pinned states keep ``f_now``: their force is set-valued)."""
+    if s == 2:
+        return k * (dm - b) + c * dmd
+    if s == -2:
+        return k * (dm + b) + c * dmd
+    if s == 0:
+        return 0.0
+    return f_now
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_meshes(
+    s_prev: np.ndarray,
+    forced: int,
+    a1: np.ndarray,
+    b1: np.ndarray,
+    am: np.ndarray,
+    bm: np.ndarray,
+    kk: np.ndarray,
+    ee: np.ndarray,
+    ed: np.ndarray,
+    cm: np.ndarray,
+    bst: np.ndarray,
+    force: np.ndarray,
+    new_state: np.ndarray,
+    work: np.ndarray,
+    rhs: np.ndarray,
+    trial: np.ndarray,
+) -> int:
+    """Joint exact mesh solve (Eqs 25-26) of all meshes; returns 1 if it failed, else 0.
+
+    ``delta = a1 + am F``, ``delta' = b1 + bm F``. Active set from ``s_prev`` (as
+    ``kernels.mesh_solve``); mesh ``forced`` (>= 0, in contact or in the dead zone) keeps its state
+    and force law even slightly past the boundary (the sub-step that ends at its located contact
+    change). If the active set does not settle: ``kernels.mesh_solve`` with its exhaustive search.
+    """
+    nm = s_prev.shape[0]
+    fix = -1
+    if forced >= 0:
+        sf = s_prev[forced]
+        if sf == 2 or sf == -2 or sf == 0:
+            fix = forced
+    for i in range(nm):
+        trial[i] = s_prev[i]
+    for _ in range(_MAX_ACTIVE_SET_ITER):
+        for i in range(nm):  # Eq 25 in each trial state (kernels._solve_states)
+            s = trial[i]
+            for j in range(nm):
+                work[i, j] = 0.0
+            if s == 2 or s == -2:
+                sg = 1.0 if s == 2 else -1.0
+                for j in range(nm):
+                    work[i, j] = -kk[i] * am[i, j] - cm[i] * bm[i, j]
+                work[i, i] += 1.0
+                rhs[i] = kk[i] * (a1[i] - ee[i] - sg * bst[i]) + cm[i] * (b1[i] - ed[i])
+            elif s == 0:
+                work[i, i] = 1.0
+                rhs[i] = 0.0
+            else:
+                sg = 1.0 if s == 1 else -1.0
+                for j in range(nm):
+                    work[i, j] = am[i, j]
+                rhs[i] = ee[i] + sg * bst[i] - a1[i]
+        if not _solve_small(work, rhs, nm, force):
+            break
+        settled = True
+        for i in range(nm):  # consistency of each state (kernels._check_states)
+            d = a1[i]
+            dd = b1[i]
+            for j in range(nm):
+                d += am[i, j] * force[j]
+                dd += bm[i, j] * force[j]
+            dm = d - ee[i]
+            dmd = dd - ed[i]
+            tol_d = 1e-12 * (abs(bst[i]) + abs(dm)) + 1e-20
+            tol_f = 1e-12 * (abs(force[i]) + abs(cm[i] * dmd)) + 1e-20
+            ns = (
+                trial[i]
+                if i == fix
+                else _natural_state(trial[i], dm, dmd, force[i], cm[i], bst[i], tol_d, tol_f)
+            )
+            new_state[i] = ns
+            if ns != trial[i]:
+                settled = False
+        if settled:
+            return 0
+        for i in range(nm):
+            trial[i] = new_state[i]
+    its = mesh_solve(s_prev, a1, b1, am, bm, kk, cm, ee, ed, bst, new_state, force, work, rhs, trial)
+    return 1 if its < 0 else 0
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _locate_crossing(dma: float, dmda: float, dmb: float, dmdb: float, b: float, hw: float) -> float:
+    """Fraction in (0, 1) of a (sub)step of length ``hw`` at which ``delta_m`` first crosses +-b*.
+
+    Cubic Hermite interpolation of ``delta_m`` from its values and rates at both ends, root by
+    Newton from the linear estimate; -1 if there is no sign change (e.g. a pinned boundary state).
+    """
+    best = -1.0
+    for side in range(2):
+        lev = b if side == 0 else -b
+        fa = dma - lev
+        fb = dmb - lev
+        if fa * fb < 0.0:
+            t = fa / (fa - fb)
+            ga = hw * dmda
+            gb = hw * dmdb
+            for _ in range(4):
+                t2 = t * t
+                t3 = t2 * t
+                hh = (
+                    (2 * t3 - 3 * t2 + 1) * fa
+                    + (t3 - 2 * t2 + t) * ga
+                    + (3 * t2 - 2 * t3) * fb
+                    + (t3 - t2) * gb
+                )
+                dh = (
+                    (6 * t2 - 6 * t) * fa
+                    + (3 * t2 - 4 * t + 1) * ga
+                    + (6 * t - 6 * t2) * fb
+                    + (3 * t2 - 2 * t) * gb
+                )
+                if dh == 0.0:
+                    break
+                tn = t - hh / dh
+                if not (0.0 < tn < 1.0):
+                    break
+                t = tn
+            if best < 0.0 or t < best:
+                best = t
+    if best <= 1e-9 or best >= 1.0 - 1e-9:
+        return -1.0
+    return best
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
+def _lerp(a: float, b: float, th: float) -> float:
+    return b if th == 1.0 else a + th * (b - a)
+
+
+# ----------------------------------------------------------------------------------------------
+# sub-steps (event steps only)
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _set_columns(
+    i: int, beta: np.ndarray, coef: np.ndarray, fm: float, d: float, dd: float, mesh_par: np.ndarray
+) -> None:
+    """Amplitudes of mesh i's columns: u = compensation - coef_0 F, friction columns coef_j F."""
+    nb = coef.shape[1]
+    c = i * nb
+    beta[c] = mesh_par[i, 0] * d + mesh_par[i, 1] * dd - coef[i, 0] * fm
+    for j in range(1, nb):
+        beta[c + j] = coef[i, j] * fm
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy")
+def _event_step(
+    n: int,
+    m0: int,
+    tc0: float,
+    dest0: int,
+    mesh0: int,
+    nf: int,
+    ev: tuple,
+    modal: tuple,
+    mesh: tuple,
+    tables: tuple,
+    exc: tuple,
+    prev: tuple,
+    cur: tuple,
+    work: tuple,
+    dt: float,
+    bound: float,
+) -> tuple[int, int, int]:
+    """Step n-1 -> n as Newmark sub-steps split at the table jumps ``bnd[1..m0-1]`` (fractions of the
+    step, phases ``bfe``, mesh ``bmesh``), at a jump of mesh i at the step end (``endfe[i]`` >= 0) and
+    at located contact changes (see :func:`run_chunk_gear`); ``tc0`` > 0: a contact change of mesh
+    ``mesh0`` into state ``dest0`` already located on the full step (no jump in it).
+
+    A sub-step of length ``w h`` (``mu = h lambda`` per mode): ``r' = (1 + w mu/2)/(1 - w mu/2)``,
+    force-column scale ``rho = s'/s = w (1 - mu/2)/(1 - w mu/2)``; delta, delta' at its end read the
+    free part ``Re(V Phi r' z)``, the responses ``Re(sum_j rho_j pm_j)`` to the mesh columns and the
+    static increment (``pm`` per dt), those to the effect columns, and with a reduced basis the
+    dropped modes' static part of the new amplitudes; the compensation is eliminated with
+    ``E(w) = I - Kbar H_d - Cbar H_v`` of the sub-step. The bodies are written out here (one call per
+    event step, not one per sub-step and helper: every array handed over costs a reference count).
+
+    ``prev`` = (d, dd, e, ed, f, s) per mesh at the step start, updated to the step end; ``cur`` =
+    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force) receive the end values. Returns
+    (status, failed solves, sub-steps).
+    """
+    bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev
+    zr, zi, _rr, _ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
+    pq, pqn, _pq_static, rstat, _pd, _pv, mesh_par = mesh
+    _phase, phase_rate, kfac, te_add, ted_add, ampl = exc
+    d_p, dd_p, e_p, ed_p, f_p, s_p = prev
+    kk, ee, edv, coef, beta_prev, beta_new, alpha, force = cur
+    rp, qs, qn, acc, pdm, pvm, mats, solve_w, gr, gi, new_state, cm, bst, swn = work
+    rpr, rpi, rhr, rhi = rp
+    a1, b1, am, bm, gd, gv, wv = mats
+    swork, srhs, strial = solve_w
+    nm = d_p.shape[0]
+    nr = 2 * nm
+    nb = coef.shape[1]
+    na = beta_prev.shape[0]
+    e0 = nm * nb
+    nmode = zr.shape[0]
+    npm = pmr.shape[0]  # (mesh columns + static increment) x 2 nm
+    ne = ampl.shape[1]
+    has_kfac = kfac.shape[0] > 0
+    has_te = te_add.shape[0] > 0
+    two_pi = 2.0 * np.pi
+    # bkind: 0 step end, 1 table jump, 2 located contact change (bdest: the state after it)
+    m = m0
+    bnd[0] = 0.0
+    for i in range(1, m):
+        bkind[i] = 1
+    bnd[m] = 1.0
+    bkind[m] = 0
+    for i in range(m):
+        allow[i] = 1
+    if tc0 > 0.0:  # contact change already located on the full step (no jump in it): split there
+        bnd[2] = bnd[1]
+        bkind[2] = bkind[1]
+        bnd[1] = tc0
+        bkind[1] = 2
+        bdest[1] = dest0
+        bmesh[1] = mesh0
+        allow[0] = 0
+        allow[1] = 0
+        m = 2
+    n_fail = 0
+    n_sub = 0
+    i = 0
+    while i < m:
+        ta = bnd[i]
+        tb = bnd[i + 1]
+        kind = bkind[i + 1]
+        w = tb - ta
+        # --- sub-step map r', rho over all modes
+        for j in range(nmode):
+            ar = 0.5 * w * mur[j]
+            ai = 0.5 * w * mui[j]
+            dr = 1.0 - ar
+            inv = 1.0 / (dr * dr + ai * ai)
+            nr_ = 1.0 + ar
+            rpr[j] = (nr_ * dr - ai * ai) * inv
+            rpi[j] = (ai * dr + nr_ * ai) * inv
+            er = 1.0 - 0.5 * mur[j]
+            ei = -0.5 * mui[j]
+            rhr[j] = w * (er * dr - ei * ai) * inv
+            rhi[j] = w * (ei * dr + er * ai) * inv
+        # --- responses of delta, delta' at the sub-step end (reductions over the forced modes)
+        for r in range(npm):
+            sm = 0.0
+            for j in range(nf):
+                sm += rhr[j] * pmr[r, j] - rhi[j] * pmi[r, j]
+            acc[r] = sm
+        for r in range(nr):
+            sm = 0.0
+            for j in range(nf):
+                tr = rpr[j] * zr[j] - rpi[j] * zi[j]
+                ti = rpr[j] * zi[j] + rpi[j] * zr[j]
+                sm += vrr[r, j] * tr - vri[r, j] * ti
+            acc[npm + r] = sm
+        nmc = npm // nr - 1  # mesh columns
+        for r in range(nr):
+            for q in range(nmc):
+                qs[r, q] = acc[q * nr + r]
+            qs[r, na] = acc[nmc * nr + r] + rstat[r] + acc[npm + r]  # static increment and free part
+        for q in range(nmc, na):  # effect columns, on the fly
+            for r in range(nr):
+                sm = 0.0
+                for j in range(nf):
+                    tr = rhr[j] * swr[q, j] - rhi[j] * swi[q, j]
+                    ti = rhr[j] * swi[q, j] + rhi[j] * swr[q, j]
+                    sm += vrr[r, j] * tr - vri[r, j] * ti
+                qs[r, q] = sm
+        for r in range(nr):
+            for q in range(na):
+                qn[r, q] = qs[r, q] + (pqn[r, q] - pq[r, q])  # plus the dropped modes' static part
+        # --- excitation at the sub-step end
+        finite = True
+        for j in range(nm):
+            fe[j] = -1.0
+            ph[j] = pha[j] + tb * dph[j]
+            if kind == 1 and bmesh[i + 1] == j:
+                fe[j] = bfe[i + 1] if bfe[i + 1] > 0.0 else 1.0
+            elif kind == 0 and endfe[j] >= 0.0:
+                fe[j] = endfe[j] if endfe[j] > 0.0 else 1.0
+            if fe[j] >= 0.0:  # the left limit at the jump
+                k = _tables_at(j, fe[j], True, tables, coef)
+            else:
+                k = _tables_at(j, ph[j] - np.floor(ph[j]), False, tables, coef)
+            if has_kfac:
+                k *= _lerp(kfac[n - 1, j], kfac[n, j], tb)
+            arg = two_pi * ph[j] + mesh_par[j, 5]
+            e = mesh_par[j, 4] * np.sin(arg)
+            edot = mesh_par[j, 4] * np.cos(arg) * two_pi * _lerp(phase_rate[n - 1, j], phase_rate[n, j], tb)
+            if has_te:
+                e += _lerp(te_add[n - 1, j], te_add[n, j], tb)
+                edot += _lerp(ted_add[n - 1, j], ted_add[n, j], tb)
+            kk[j] = k
+            ee[j] = e
+            edv[j] = edot
+            if not (np.isfinite(k) and np.isfinite(e) and np.isfinite(edot)):
+                finite = False
+        if not finite:
+            return STATUS_NONFINITE, n_fail, n_sub
+        for q in range(ne):
+            beta_new[e0 + q] = _lerp(ampl[n - 1, q], ampl[n, q], tb)
+        # --- compensation: pd = H_d E^-1, pv = H_v E^-1 (Gauss-Jordan on [E | I], nm x 2 nm)
+        for r in range(nm):
+            for l in range(nm):
+                swork[r, l] = (
+                    (1.0 if r == l else 0.0)
+                    - mesh_par[r, 0] * qn[r, l * nb]
+                    - mesh_par[r, 1] * qn[nm + r, l * nb]
+                )
+                swork[r, nm + l] = 1.0 if r == l else 0.0
+        for c in range(nm):
+            p = c
+            best = abs(swork[c, c])
+            for r in range(c + 1, nm):
+                if abs(swork[r, c]) > best:
+                    best = abs(swork[r, c])
+                    p = r
+            if p != c:
+                for l in range(2 * nm):
+                    tmp = swork[c, l]
+                    swork[c, l] = swork[p, l]
+                    swork[p, l] = tmp
+            piv = swork[c, c]
+            for l in range(2 * nm):
+                swork[c, l] /= piv
+            for r in range(nm):
+                if r != c:
+                    fac = swork[r, c]
+                    for l in range(2 * nm):
+                        swork[r, l] -= fac * swork[c, l]
+        for r in range(nm):
+            for l in range(nm):
+                sd = 0.0
+                sv = 0.0
+                for mm in range(nm):
+                    sd += qn[r, mm * nb] * swork[mm, nm + l]
+                    sv += qn[nm + r, mm * nb] * swork[mm, nm + l]
+                pdm[r, l] = sd
+                pvm[r, l] = sv
+        # --- delta, delta' affine in the mesh forces
+        for r in range(nm):
+            sd = qs[r, na]
+            sv = qs[nm + r, na]
+            for q in range(na):
+                sd += qs[r, q] * beta_prev[q]
+                sv += qs[nm + r, q] * beta_prev[q]
+            for q in range(e0, na):
+                sd += qn[r, q] * beta_new[q]
+                sv += qn[nm + r, q] * beta_new[q]
+            a1[r] = sd
+            b1[r] = sv
+            for l in range(nm):
+                c = l * nb
+                td = -coef[l, 0] * qn[r, c]
+                tv = -coef[l, 0] * qn[nm + r, c]
+                for j in range(1, nb):
+                    td += qn[r, c + j] * coef[l, j]
+                    tv += qn[nm + r, c + j] * coef[l, j]
+                gd[r, l] = td
+                gv[r, l] = tv
+        for l in range(nm):
+            wv[l] = mesh_par[l, 0] * a1[l] + mesh_par[l, 1] * b1[l]
+        for r in range(nm):
+            for l in range(nm):
+                a1[r] += pdm[r, l] * wv[l]
+                b1[r] += pvm[r, l] * wv[l]
+            for j in range(nm):
+                td = gd[r, j]
+                tv = gv[r, j]
+                for l in range(nm):
+                    ww = mesh_par[l, 0] * gd[l, j] + mesh_par[l, 1] * gv[l, j]
+                    td += pdm[r, l] * ww
+                    tv += pvm[r, l] * ww
+                am[r, j] = td
+                bm[r, j] = tv
+        # --- mesh solve (the mesh whose located contact change ends this sub-step keeps its old law)
+        forced = bmesh[i + 1] if kind == 2 else -1
+        fail = 0
+        if nm == 1:
+            s0 = s_p[0]
+            if forced == 0 and (s0 == 2 or s0 == -2 or s0 == 0):
+                if s0 == 0:
+                    f0 = 0.0
+                else:
+                    sg = 1.0 if s0 == 2 else -1.0
+                    f0 = (
+                        kk[0] * (a1[0] - ee[0] - sg * mesh_par[0, 3]) + mesh_par[0, 2] * (b1[0] - edv[0])
+                    ) / (1.0 - kk[0] * am[0, 0] - mesh_par[0, 2] * bm[0, 0])  # Eq 25
+                new_state[0] = s0
+                force[0] = f0
+            else:
+                ns1, f1 = _mesh_solve_one(
+                    s0,
+                    a1[0] - ee[0],
+                    b1[0] - edv[0],
+                    am[0, 0],
+                    bm[0, 0],
+                    kk[0],
+                    mesh_par[0, 2],
+                    mesh_par[0, 3],
+                )
+                if ns1 == -9:
+                    fail = _solve_meshes(
+                        s_p, -1, a1, b1, am, bm, kk, ee, edv, cm, bst, force, new_state, swn, srhs, strial
+                    )
+                else:
+                    new_state[0] = ns1
+                    force[0] = f1
+        else:
+            fail = _solve_meshes(
+                s_p, forced, a1, b1, am, bm, kk, ee, edv, cm, bst, force, new_state, swn, srhs, strial
+            )
+        changed = False
+        for j in range(nm):
+            if new_state[j] != s_p[j]:
+                changed = True
+        if allow[i] == 1 and changed and m < _MAX_PIECES - 1:
+            tc = -1.0
+            jc = -1
+            for j in range(nm):
+                if new_state[j] != s_p[j]:
+                    d = a1[j]
+                    dd = b1[j]
+                    for l in range(nm):
+                        d += am[j, l] * force[l]
+                        dd += bm[j, l] * force[l]
+                    t = _locate_crossing(
+                        d_p[j] - e_p[j], dd_p[j] - ed_p[j], d - ee[j], dd - edv[j], mesh_par[j, 3], w * dt
+                    )
+                    if t > 0.0 and (tc < 0.0 or t < tc):
+                        tc = t
+                        jc = j
+            if tc > 0.0:
+                for j in range(m, i, -1):
+                    bnd[j + 1] = bnd[j]
+                    bfe[j + 1] = bfe[j]
+                    bmesh[j + 1] = bmesh[j]
+                    bkind[j + 1] = bkind[j]
+                    bdest[j + 1] = bdest[j]
+                    allow[j + 1] = allow[j]
+                bnd[i + 1] = ta + tc * w
+                bkind[i + 1] = 2
+                bdest[i + 1] = new_state[jc]
+                bmesh[i + 1] = jc
+                allow[i] = 0
+                allow[i + 1] = 0
+                m += 1
+                continue
+        n_fail += fail
+        # --- commit: new amplitudes, z <- r' z + rho (c0 + sum_q SW_q alpha_q)
+        for j in range(nm):
+            d = a1[j]
+            dd = b1[j]
+            for l in range(nm):
+                d += am[j, l] * force[l]
+                dd += bm[j, l] * force[l]
+            if not (np.isfinite(d) and np.isfinite(force[j])):
+                return STATUS_NONFINITE, n_fail, n_sub
+            if abs(d) >= bound:
+                return STATUS_BOUND, n_fail, n_sub
+            c = j * nb
+            beta_new[c] = mesh_par[j, 0] * d + mesh_par[j, 1] * dd - coef[j, 0] * force[j]
+            for l in range(1, nb):
+                beta_new[c + l] = coef[j, l] * force[j]
+            d_p[j] = d
+            dd_p[j] = dd
+            e_p[j] = ee[j]
+            ed_p[j] = edv[j]
+            f_p[j] = force[j]
+            s_p[j] = new_state[j]
+        for q in range(na):
+            alpha[q] = beta_prev[q] + beta_new[q]
+            beta_prev[q] = beta_new[q]
+        for j in range(nmode):
+            gr[j] = c0r[j]
+            gi[j] = c0i[j]
+        for q in range(na):
+            aq = alpha[q]
+            if aq != 0.0:
+                for j in range(nf):
+                    gr[j] += swr[q, j] * aq
+                    gi[j] += swi[q, j] * aq
+        for j in range(nmode):
+            xr = zr[j]
+            xi = zi[j]
+            zr[j] = rpr[j] * xr - rpi[j] * xi + rhr[j] * gr[j] - rhi[j] * gi[j]
+            zi[j] = rpr[j] * xi + rpi[j] * xr + rhr[j] * gi[j] + rhi[j] * gr[j]
+        n_sub += 1
+        # --- right limits at the boundary
+        for j in range(nm):
+            if fe[j] >= 0.0:
+                # right limit of mesh j's tables at its jump, same contact state and deflection
+                k = _tables_at(j, fe[j] if fe[j] < 1.0 else 0.0, False, tables, coef)
+                if has_kfac:
+                    k *= _lerp(kfac[n - 1, j], kfac[n, j], tb)
+                kk[j] = k
+                f_p[j] = _state_force(
+                    s_p[j], d_p[j] - e_p[j], dd_p[j] - ed_p[j], k, mesh_par[j, 2], mesh_par[j, 3], f_p[j]
+                )
+                _set_columns(j, beta_prev, coef, f_p[j], d_p[j], dd_p[j], mesh_par)
+        if kind == 2:
+            j = bmesh[i + 1]
+            sd_ = bdest[i + 1]
+            if s_p[j] != sd_ and (sd_ == 0 or sd_ == 2 or sd_ == -2):
+                # right limit of Eq 25 at the located contact change (its damping term jumps)
+                f_p[j] = _state_force(
+                    sd_, d_p[j] - e_p[j], dd_p[j] - ed_p[j], kk[j], mesh_par[j, 2], mesh_par[j, 3], f_p[j]
+                )
+                s_p[j] = sd_
+                _set_columns(j, beta_prev, coef, f_p[j], d_p[j], dd_p[j], mesh_par)
+        i += 1
+    return STATUS_OK, n_fail, n_sub
+
+
+# ----------------------------------------------------------------------------------------------
+# the chunk
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", nogil=True)
+def run_chunk_gear(
+    modal: tuple,
+    n_forced: int,
+    mesh: tuple,
+    tables: tuple,
+    exc: tuple,
+    carry: tuple,
+    outs: tuple,
+    dt: float,
+    locate: bool,
+    bound: float,
+    fuse: bool = True,
+) -> tuple[int, int, int, int]:
+    """Advance ``n = phase.shape[0] - 1`` steps of the modal map with ``nm >= 1`` table meshes.
+
+    Per step (Eq 39 by the exact modal Newmark map):
+
+    1. events (``locate``): the table jumps of every mesh inside the step (from its phase);
+    2. excitation: per mesh the stiffness and force coefficients from the tables (Eqs 13-15, 29) at
+       the mesh phase, the transmission error of Eq 24 and its rate, the effect inputs;
+    3. delta, delta' at the step end as affine functions of the mesh forces, ``a1 + am F`` and
+       ``b1 + bm F``: prediction, static load, carried and new effect amplitudes; the unknown new
+       amplitudes ``u_l = comp_l - coef_l0 F_l`` and ``coef_lj F_l`` with the compensation
+       ``comp = kbar delta + cbar delta'`` eliminated exactly (``pd = H_d E^-1``, ``pv = H_v E^-1``
+       with ``E = I - Kbar H_d - Cbar H_v``, ``H`` the responses to the ``u`` columns);
+    4. the exact piecewise-linear mesh solve of Eqs 25-26 (one mesh: scalar active set; several:
+       jointly, :func:`_solve_meshes`); with ``locate`` a contact change of any mesh is located in
+       the step (Hermite interpolation of its delta_m) and the step redone as sub-steps;
+    5. the new amplitudes, then ``z <- r z + c0 + sum_q SW_q alpha_q`` over the forced modes (the
+       rest only propagate) and the predictions ``Re((V Phi) r z)`` of the next step in one pass
+       (mesh columns unrolled for one and two meshes);
+    6. the outputs in blocks of ``hbuf.shape[0]`` steps by one matrix product (BLAS).
+
+    A step holding an event is integrated by :func:`_event_step`: Newmark sub-steps split exactly
+    at the jump phases (left limit of the tables at the end of one sub-step, right limit at the start
+    of the next, same deflection and contact state) and at located contact changes (the sub-step
+    that ends there keeps the old state's force law; the next starts from the right limit of Eq 25).
+
+    Returns
+    -------
+    (status, step, n_failed_mesh_solves, n_substeps)
+    """
+    zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2, _vrr, _vri, _mur, _mui, pmr, _pmi = modal
+    pq, pqn, pq_static, _rstat, pd, pv, mesh_par = mesh
+    phase, phase_rate, kfac, te_add, ted_add, ampl = exc
+    tab_kf, tab_cf, jflag, _tab_k, _tab_c, jump_p, _jump_k, _jump_c, n_jump = tables
+    beta_prev, ypred, state, mcarry = carry
+    cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs
+    swr = swr2.ravel()
+    swi = swi2.ravel()
+    crr = crr2.ravel()
+    cri = cri2.ravel()
+    nsteps = phase.shape[0] - 1
+    nm = phase.shape[1]
+    nt = tab_kf.shape[1]
+    nb = tab_cf.shape[2]
+    na = beta_prev.shape[0]
+    ne = ampl.shape[1]
+    no = cstack.shape[1]
+    nmode = zr.shape[0]
+    nf = n_forced
+    e0 = nm * nb
+    has_kfac = kfac.shape[0] > 0
+    has_te = te_add.shape[0] > 0
+    two_pi = 2.0 * np.pi
+    if nsteps == 0:
+        return STATUS_OK, 0, 0, 0
+    beta_new = np.zeros(na)
+    alpha = np.zeros(na)
+    coef = np.zeros((nm, nb))
+    kk = np.zeros(nm)
+    ee = np.zeros(nm)
+    ed = np.zeros(nm)
+    a1 = np.zeros(nm)
+    b1 = np.zeros(nm)
+    am = np.zeros((nm, nm))
+    bm = np.zeros((nm, nm))
+    gd = np.zeros((nm, nm))
+    gv = np.zeros((nm, nm))
+    wv = np.zeros(nm)
+    cm = np.zeros(nm)
+    bst = np.zeros(nm)
+    for i in range(nm):
+        cm[i] = mesh_par[i, 2]
+        bst[i] = mesh_par[i, 3]
+    s_p = state.copy()
+    new_state = np.zeros(nm, dtype=np.int64)
+    trial = np.zeros(nm, dtype=np.int64)
+    force = np.zeros(nm)
+    swork = np.zeros((nm, nm))
+    swork2 = np.zeros((nm, 2 * nm))
+    srhs = np.zeros(nm)
+    # per mesh at the carried step: delta, delta', TE, its rate, force
+    d_p = mcarry[0].copy()
+    dd_p = mcarry[1].copy()
+    f_p = mcarry[2].copy()
+    e_p = np.zeros(nm)
+    ed_p = np.zeros(nm)
+    for i in range(nm):
+        arg = two_pi * phase[0, i] + mesh_par[i, 5]
+        e_p[i] = mesh_par[i, 4] * np.sin(arg)
+        ed_p[i] = mesh_par[i, 4] * np.cos(arg) * two_pi * phase_rate[0, i]
+        if has_te:
+            e_p[i] += te_add[0, i]
+            ed_p[i] += ted_add[0, i]
+    # event-step work arrays
+    npc = _MAX_PIECES + 2
+    bnd = np.zeros(npc)
+    bfe = np.zeros(npc)
+    bmesh = np.zeros(npc, dtype=np.int64)
+    bkind = np.zeros(npc, dtype=np.int64)
+    bdest = np.zeros(npc, dtype=np.int64)
+    allow = np.zeros(npc, dtype=np.int64)
+    endfe = np.zeros(nm)
+    dph = np.zeros(nm)
+    pha = np.zeros(nm)
+    fev = np.zeros(nm)
+    phv = np.zeros(nm)
+    ev = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fev, phv)
+    rp = (np.zeros(nmode), np.zeros(nmode), np.zeros(nmode), np.zeros(nmode))
+    qs = np.zeros((2 * nm, na + 1))
+    qn = np.zeros((2 * nm, na))
+    acc = np.zeros(pmr.shape[0] + 2 * nm)
+    pdm = np.zeros((nm, nm))
+    pvm = np.zeros((nm, nm))
+    gr_all = np.zeros(nmode)
+    gi_all = np.zeros(nmode)
+    mats = (a1, b1, am, bm, gd, gv, wv)
+    wtup = (rp, qs, qn, acc, pdm, pvm, mats, (swork2, srhs, trial), gr_all, gi_all, new_state, cm, bst, swork)
+    prev = (d_p, dd_p, e_p, ed_p, f_p, s_p)
+    cur = (kk, ee, ed, coef, beta_prev, beta_new, alpha, force)
+    # fused update: the mesh column rows and prediction rows as 1-D views from 0, made once (rows of a
+    # mesh that does not exist, or beyond nb, point at a zero row)
+    fused = fuse and nm <= 2 and nb <= 4
+    zero = np.zeros(max(nf, 1))
+    zfr = zr[:nf]
+    zfi = zi[:nf]
+    rfr = rr[:nf]
+    rfi = ri[:nf]
+    c0fr = c0r[:nf]
+    c0fi = c0i[:nf]
+    gr = np.zeros(nf)  # effect-column increments of a step
+    gi = np.zeros(nf)
+    qa = np.full(8, -1, dtype=np.int64)  # active column of each fused slot (-1: none)
+    for i in range(min(nm, 2)):
+        for j in range(min(nb, 4)):
+            qa[4 * i + j] = i * nb + j
+    s0r = swr2[qa[0], :nf] if qa[0] >= 0 else zero[:nf]
+    s0i = swi2[qa[0], :nf] if qa[0] >= 0 else zero[:nf]
+    s1r = swr2[qa[1], :nf] if qa[1] >= 0 else zero[:nf]
+    s1i = swi2[qa[1], :nf] if qa[1] >= 0 else zero[:nf]
+    s2r = swr2[qa[2], :nf] if qa[2] >= 0 else zero[:nf]
+    s2i = swi2[qa[2], :nf] if qa[2] >= 0 else zero[:nf]
+    s3r = swr2[qa[3], :nf] if qa[3] >= 0 else zero[:nf]
+    s3i = swi2[qa[3], :nf] if qa[3] >= 0 else zero[:nf]
+    s4r = swr2[qa[4], :nf] if qa[4] >= 0 else zero[:nf]
+    s4i = swi2[qa[4], :nf] if qa[4] >= 0 else zero[:nf]
+    s5r = swr2[qa[5], :nf] if qa[5] >= 0 else zero[:nf]
+    s5i = swi2[qa[5], :nf] if qa[5] >= 0 else zero[:nf]
+    s6r = swr2[qa[6], :nf] if qa[6] >= 0 else zero[:nf]
+    s6i = swi2[qa[6], :nf] if qa[6] >= 0 else zero[:nf]
+    s7r = swr2[qa[7], :nf] if qa[7] >= 0 else zero[:nf]
+    s7i = swi2[qa[7], :nf] if qa[7] >= 0 else zero[:nf]
+    # prediction rows: delta_1, delta_1', delta_2, delta_2'
+    p0r = crr2[0, :nf]
+    p0i = cri2[0, :nf]
+    p1r = crr2[nm, :nf]
+    p1i = cri2[nm, :nf]
+    p2r = crr2[1, :nf] if nm > 1 else zero[:nf]
+    p2i = cri2[1, :nf] if nm > 1 else zero[:nf]
+    p3r = crr2[nm + 1, :nf] if nm > 1 else zero[:nf]
+    p3i = cri2[nm + 1, :nf] if nm > 1 else zero[:nf]
+    n_fail = 0
+    n_sub = 0
+    n_buf = hbuf.shape[0]
+    hb = 0
+    o0 = 0
+    for n in range(1, nsteps + 1):
+        o = n - 1
+        # 1. events inside the step (table jumps of every mesh)
+        nev = 0
+        has_end = False
+        if locate:
+            for i in range(nm):
+                endfe[i] = -1.0
+                ph_a = phase[n - 1, i]
+                dp = phase[n, i] - ph_a
+                if dp < 0.0:
+                    dp += 1.0
+                pha[i] = ph_a
+                dph[i] = dp
+                for q in range(n_jump[i]):
+                    x = jump_p[i, q] - ph_a
+                    if x <= 0.0:
+                        x += 1.0
+                    if x < dp and nev < _MAX_PIECES - 2 - nm:
+                        th = x / dp
+                        if th <= _EVENT_SNAP:
+                            # the jump is at the step start (to round-off): start from its right limit
+                            k0 = _tables_at(i, jump_p[i, q], False, tables, coef)
+                            if has_kfac:
+                                k0 *= kfac[n - 1, i]
+                            f_p[i] = _state_force(
+                                s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], k0, cm[i], bst[i], f_p[i]
+                            )
+                            _set_columns(i, beta_prev, coef, f_p[i], d_p[i], dd_p[i], mesh_par)
+                            continue
+                        if th >= 1.0 - _EVENT_SNAP:
+                            endfe[i] = jump_p[i, q]  # at the step end: left limit there, then the right limit
+                            has_end = True
+                            continue
+                        pos = nev + 1  # insertion sort into bnd[1..nev]
+                        while pos > 1 and bnd[pos - 1] > th:
+                            bnd[pos] = bnd[pos - 1]
+                            bfe[pos] = bfe[pos - 1]
+                            bmesh[pos] = bmesh[pos - 1]
+                            pos -= 1
+                        bnd[pos] = th
+                        bfe[pos] = jump_p[i, q]
+                        bmesh[pos] = i
+                        nev += 1
+        regular = nev == 0 and not has_end
+        tc0 = -1.0
+        dest0 = 0
+        mesh0 = -1
+        if regular:
+            # 2. excitation at the step end
+            finite = True
+            for i in range(nm):
+                f = phase[n, i]
+                x = f * nt
+                i0 = int(np.floor(x))
+                fr = x - i0
+                i0 = i0 % nt
+                i1 = i0 + 1
+                if i1 == nt:
+                    i1 = 0
+                if jflag[i, i0] == 0:
+                    k = tab_kf[i, i0] + fr * (tab_kf[i, i1] - tab_kf[i, i0])
+                    for j in range(nb):
+                        coef[i, j] = tab_cf[i, i0, j] + fr * (tab_cf[i, i1, j] - tab_cf[i, i0, j])
+                else:
+                    k = _tables_at(i, f, False, tables, coef)
+                if has_kfac:
+                    k *= kfac[n, i]
+                arg = two_pi * f + mesh_par[i, 5]
+                e = mesh_par[i, 4] * np.sin(arg)
+                edot = mesh_par[i, 4] * np.cos(arg) * two_pi * phase_rate[n, i]
+                if has_te:
+                    e += te_add[n, i]
+                    edot += ted_add[n, i]
+                kk[i] = k
+                ee[i] = e
+                ed[i] = edot
+                if not (np.isfinite(k) and np.isfinite(e) and np.isfinite(edot)):
+                    finite = False
+            if not finite:
+                state[:] = s_p
+                return STATUS_NONFINITE, o, n_fail, n_sub
+            for q in range(ne):
+                beta_new[e0 + q] = ampl[n, q]
+            # 3. delta, delta' affine in the mesh forces; 4. the mesh solve
+            fail = 0
+            if nm == 1:  # scalars (the paper gearbox)
+                sd = ypred[0] + pq_static[0]
+                sv = ypred[1] + pq_static[1]
+                for q in range(na):
+                    sd += pq[0, q] * beta_prev[q]
+                    sv += pq[1, q] * beta_prev[q]
+                for q in range(e0, na):
+                    sd += pqn[0, q] * beta_new[q]
+                    sv += pqn[1, q] * beta_new[q]
+                td = -coef[0, 0] * pqn[0, 0]
+                tv = -coef[0, 0] * pqn[1, 0]
+                for j in range(1, nb):
+                    td += pqn[0, j] * coef[0, j]
+                    tv += pqn[1, j] * coef[0, j]
+                kb = mesh_par[0, 0]
+                cb = mesh_par[0, 1]
+                wc = kb * sd + cb * sv
+                wg = kb * td + cb * tv
+                a10 = sd + pd[0, 0] * wc
+                b10 = sv + pv[0, 0] * wc
+                am0 = td + pd[0, 0] * wg
+                bm0 = tv + pv[0, 0] * wg
+                a1[0] = a10
+                b1[0] = b10
+                am[0, 0] = am0
+                bm[0, 0] = bm0
+                ns1, f1 = _mesh_solve_one(s_p[0], a10 - ee[0], b10 - ed[0], am0, bm0, kk[0], cm[0], bst[0])
+                if ns1 == -9:  # rare: the general solver with its exhaustive search
+                    fail = _solve_meshes(
+                        s_p, -1, a1, b1, am, bm, kk, ee, ed, cm, bst, force, new_state, swork, srhs, trial
+                    )
+                else:
+                    new_state[0] = ns1
+                    force[0] = f1
+            else:
+                for i in range(nm):
+                    sd = ypred[i] + pq_static[i]
+                    sv = ypred[nm + i] + pq_static[nm + i]
+                    for q in range(na):
+                        sd += pq[i, q] * beta_prev[q]
+                        sv += pq[nm + i, q] * beta_prev[q]
+                    for q in range(e0, na):
+                        sd += pqn[i, q] * beta_new[q]
+                        sv += pqn[nm + i, q] * beta_new[q]
+                    a1[i] = sd
+                    b1[i] = sv
+                    for l in range(nm):
+                        c = l * nb
+                        td = -coef[l, 0] * pqn[i, c]
+                        tv = -coef[l, 0] * pqn[nm + i, c]
+                        for j in range(1, nb):
+                            td += pqn[i, c + j] * coef[l, j]
+                            tv += pqn[nm + i, c + j] * coef[l, j]
+                        gd[i, l] = td
+                        gv[i, l] = tv
+                for l in range(nm):
+                    wv[l] = mesh_par[l, 0] * a1[l] + mesh_par[l, 1] * b1[l]
+                for i in range(nm):
+                    for l in range(nm):
+                        a1[i] += pd[i, l] * wv[l]
+                        b1[i] += pv[i, l] * wv[l]
+                    for j in range(nm):
+                        td = gd[i, j]
+                        tv = gv[i, j]
+                        for l in range(nm):
+                            w = mesh_par[l, 0] * gd[l, j] + mesh_par[l, 1] * gv[l, j]
+                            td += pd[i, l] * w
+                            tv += pv[i, l] * w
+                        am[i, j] = td
+                        bm[i, j] = tv
+                fail = _solve_meshes(
+                    s_p, -1, a1, b1, am, bm, kk, ee, ed, cm, bst, force, new_state, swork, srhs, trial
+                )
+            if locate:
+                # a contact change inside the step: locate it from this full-step solution, then redo
+                # the step as two sub-steps split there (none if no crossing is found)
+                for i in range(nm):
+                    if new_state[i] != s_p[i]:
+                        d = a1[i]
+                        dd = b1[i]
+                        for j in range(nm):
+                            d += am[i, j] * force[j]
+                            dd += bm[i, j] * force[j]
+                        t = _locate_crossing(
+                            d_p[i] - e_p[i], dd_p[i] - ed_p[i], d - ee[i], dd - ed[i], bst[i], dt
+                        )
+                        if t > 0.0 and (tc0 < 0.0 or t < tc0):
+                            tc0 = t
+                            dest0 = new_state[i]
+                            mesh0 = i
+                if tc0 > 0.0:
+                    regular = False
+                    for i in range(nm):
+                        pha[i] = phase[n - 1, i]
+            if regular:
+                n_fail += fail
+        if regular:
+            # 5. new amplitudes, results, modal update
+            for i in range(nm):
+                d = a1[i]
+                dd = b1[i]
+                for j in range(nm):
+                    d += am[i, j] * force[j]
+                    dd += bm[i, j] * force[j]
+                fi = force[i]
+                if not (np.isfinite(d) and np.isfinite(fi)):
+                    state[:] = s_p
+                    return STATUS_NONFINITE, o, n_fail, n_sub
+                if abs(d) >= bound:
+                    state[:] = s_p
+                    return STATUS_BOUND, o, n_fail, n_sub
+                c = i * nb
+                beta_new[c] = mesh_par[i, 0] * d + mesh_par[i, 1] * dd - coef[i, 0] * fi
+                for j in range(1, nb):
+                    beta_new[c + j] = coef[i, j] * fi
+                s_p[i] = new_state[i]
+                d_p[i] = d
+                dd_p[i] = dd
+                e_p[i] = ee[i]
+                ed_p[i] = ed[i]
+                f_p[i] = fi
+            for q in range(na):
+                alpha[q] = beta_prev[q] + beta_new[q]
+                beta_prev[q] = beta_new[q]
+            if fused:
+                has_g = False
+                for q in range(e0, na):
+                    aq = alpha[q]
+                    if aq != 0.0:
+                        q0 = q * nmode
+                        if not has_g:
+                            for j in range(nf):
+                                gr[j] = swr[q0 + j] * aq
+                                gi[j] = swi[q0 + j] * aq
+                            has_g = True
+                        else:
+                            for j in range(nf):
+                                gr[j] += swr[q0 + j] * aq
+                                gi[j] += swi[q0 + j] * aq
+                b0 = alpha[0]
+                b1_ = alpha[qa[1]] if qa[1] >= 0 else 0.0
+                b2_ = alpha[qa[2]] if qa[2] >= 0 else 0.0
+                b3_ = alpha[qa[3]] if qa[3] >= 0 else 0.0
+                b4_ = b5_ = b6_ = b7_ = 0.0
+                if nm > 1:
+                    b4_ = alpha[qa[4]]
+                    b5_ = alpha[qa[5]] if qa[5] >= 0 else 0.0
+                    b6_ = alpha[qa[6]] if qa[6] >= 0 else 0.0
+                    b7_ = alpha[qa[7]] if qa[7] >= 0 else 0.0
+                y0 = 0.0
+                y1 = 0.0
+                y2 = 0.0
+                y3 = 0.0
+                if nm == 1 and not has_g:
+                    for j in range(nf):
+                        xr = zfr[j]
+                        xi = zfi[j]
+                        tr = (
+                            rfr[j] * xr
+                            - rfi[j] * xi
+                            + c0fr[j]
+                            + s0r[j] * b0
+                            + s1r[j] * b1_
+                            + s2r[j] * b2_
+                            + s3r[j] * b3_
+                        )
+                        ti = (
+                            rfr[j] * xi
+                            + rfi[j] * xr
+                            + c0fi[j]
+                            + s0i[j] * b0
+                            + s1i[j] * b1_
+                            + s2i[j] * b2_
+                            + s3i[j] * b3_
+                        )
+                        zfr[j] = tr
+                        zfi[j] = ti
+                        y0 += p0r[j] * tr - p0i[j] * ti
+                        y1 += p1r[j] * tr - p1i[j] * ti
+                elif nm == 1:
+                    for j in range(nf):
+                        xr = zfr[j]
+                        xi = zfi[j]
+                        tr = (
+                            rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
+                            + s3r[j] * b3_ + gr[j]
+                        )  # fmt: skip
+                        ti = (
+                            rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
+                            + s3i[j] * b3_ + gi[j]
+                        )  # fmt: skip
+                        zfr[j] = tr
+                        zfi[j] = ti
+                        y0 += p0r[j] * tr - p0i[j] * ti
+                        y1 += p1r[j] * tr - p1i[j] * ti
+                else:
+                    if not has_g:
+                        for j in range(nf):
+                            gr[j] = 0.0
+                            gi[j] = 0.0
+                    for j in range(nf):
+                        xr = zfr[j]
+                        xi = zfi[j]
+                        tr = (
+                            rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
+                            + s3r[j] * b3_ + s4r[j] * b4_ + s5r[j] * b5_ + s6r[j] * b6_ + s7r[j] * b7_ + gr[j]
+                        )  # fmt: skip
+                        ti = (
+                            rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
+                            + s3i[j] * b3_ + s4i[j] * b4_ + s5i[j] * b5_ + s6i[j] * b6_ + s7i[j] * b7_ + gi[j]
+                        )  # fmt: skip
+                        zfr[j] = tr
+                        zfi[j] = ti
+                        y0 += p0r[j] * tr - p0i[j] * ti
+                        y1 += p1r[j] * tr - p1i[j] * ti
+                        y2 += p2r[j] * tr - p2i[j] * ti
+                        y3 += p3r[j] * tr - p3i[j] * ti
+                for j in range(nf, nmode):  # unforced modes only propagate
+                    xr = zr[j]
+                    xi = zi[j]
+                    zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+                    zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+                ypred[0] = y0
+                ypred[nm] = y1
+                if nm > 1:
+                    ypred[1] = y2
+                    ypred[nm + 1] = y3
+            else:
+                for j in range(nf):
+                    xr = zr[j]
+                    xi = zi[j]
+                    zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+                    zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+                for q in range(na):
+                    aq = alpha[q]
+                    if aq != 0.0:
+                        q0 = q * nmode
+                        for j in range(nf):
+                            zr[j] += swr[q0 + j] * aq
+                            zi[j] += swi[q0 + j] * aq
+                for j in range(nf, nmode):
+                    xr = zr[j]
+                    xi = zi[j]
+                    zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+                    zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+                for r in range(2 * nm):
+                    q0 = r * nmode
+                    sm = 0.0
+                    for j in range(nf):
+                        sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
+                    ypred[r] = sm
+        else:
+            # a step holding an event: Newmark sub-steps split there
+            status, nfl, nsb = _event_step(
+                n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound
+            )
+            n_fail += nfl
+            n_sub += nsb
+            if status != STATUS_OK:
+                state[:] = s_p
+                return status, o, n_fail, n_sub
+            for r in range(2 * nm):  # prediction of the next full step from the new state
+                q0 = r * nmode
+                sm = 0.0
+                for j in range(nf):
+                    sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
+                ypred[r] = sm
+        if not np.isfinite(ypred[0]):
+            state[:] = s_p
+            return STATUS_NONFINITE, o, n_fail, n_sub
+        # 6. outputs
+        for i in range(nm):
+            dte[o, i] = d_p[i]
+            dted[o, i] = dd_p[i]
+            fmesh[o, i] = f_p[i]
+            states[o, i] = s_p[i]
+            kt_out[o, i] = kk[i]
+            et_out[o, i] = ee[i]
+            edt_out[o, i] = ed[i]
+            for j in range(nb):
+                coef_out[o, i, j] = coef[i, j]
+        if no > 0:
+            for j in range(nmode):
+                hbuf[hb, j] = zr[j]
+                hbuf[hb, nmode + j] = zi[j]
+            for q in range(na):
+                hbuf[hb, 2 * nmode + q] = beta_prev[q]
+            hb += 1
+            if hb == n_buf or n == nsteps:
+                blk = out[o0 : o0 + hb]
+                np.dot(hbuf[:hb], cstack, blk)
+                for r in range(hb):
+                    for c in range(no):
+                        blk[r, c] += dfeed_static[c]
+                o0 += hb
+                hb = 0
+    state[:] = s_p
+    mcarry[0, :] = d_p
+    mcarry[1, :] = dd_p
+    mcarry[2, :] = f_p
+    return STATUS_OK, nsteps, n_fail, n_sub
