@@ -652,7 +652,7 @@ class Calibrator:
                     continue
                 key = (p, i)
                 if key not in shifted:
-                    shifted[key] = self.cmp.shifted(sigs[p], i / fm)
+                    shifted[key] = self.cmp.shifted(sigs[p], i / fm, analytic=not self.cmp.env_non_sync)
                 out = out.combo(shifted[key], wt)
             return out
 
@@ -690,7 +690,12 @@ class Calibrator:
         if isinstance(e, GearEccentricity | MassUnbalance | ShaftMisalignment):
             return self._fit_phase_amplitude(e, cur)
         if isinstance(e, ToothWear):
-            return self._fit_scalar_amplitude(e, cur, None, "wear_depth_m", e.specs[0].upper)
+            # nonlinear: a larger backlash lets the teeth separate, and the response to a separation is
+            # not periodic (non-synchronous content the envelope family sees): full simulations on a
+            # geometric grid (x2.5) instead of one linear basis run
+            up = e.specs[0].upper
+            grid = [g for g in (4e-6, 10e-6, 25e-6, 60e-6) if g < up]
+            return self._fit_grid_scalar(e, "wear_depth_m", grid, 0.0, cur, (0.0, up))
         if isinstance(e, GearMisalignment):
             # |cos(theta + phi)| is not a cos/sin basis in phi: the phase on a 4-point grid
             fits = [
@@ -849,6 +854,8 @@ class Calibrator:
             if not own.any():
                 continue
             for d, pm, fl in zip(self.cmp.d_env, predicted, self.cmp.env_floor, strict=True):
+                if not fl > 0:  # channel left out of the envelope features
+                    continue
                 neigh = near & (pm < 0.5 * fl)
                 if neigh.sum() < 3:
                     neigh = near
