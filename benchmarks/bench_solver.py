@@ -38,6 +38,14 @@ because the machine is shared.
 (h) the paper gearbox, full against reduced (default) model side by side, interleaved, DTE only, at
     3000 / 7000 / 12000 / 20000 rpm: RTF, integration steps per second, retained modes, speed-up and
     the RMS DTE difference of the last chunk.
+(i) ramps (this script only, not ``reproduce``): ``Simulator.advance`` with the 16 default channels from
+    steady 3000 rpm / 25 C through 3000 -> 6000 rpm at 2000 rpm/s (1.5 s) and 25 -> 125 C at 20 C/s
+    (5 s), each next to the steady RTF measured just before it in the same simulator; with an empty
+    eigenbasis disk cache ("cold", a first run) and again with the cache it filled ("warm", a later
+    run; the in-process basis memo cleared). Without ``--quick`` also the per-quantum rebuild
+    (``ramp_speed_quantum_rel=SPEED_QUANTUM_REL``, ``ramp_temperature_quantum_c=TEMPERATURE_QUANTUM_C``)
+    and the largest RMS difference of the default stream from it over the channels, % of the channel's
+    RMS.
 
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
@@ -285,8 +293,74 @@ def sweep_time(n_speeds: int, workers: int) -> dict:
     }
 
 
-def measure(quick: bool = True) -> dict:
-    """Benchmark figures; ``quick`` keeps it under about a minute (no sweep, shorter runs)."""
+RAMPS = {
+    "speed_3000_6000rpm": ({"speed_rpm": 6000.0}, 1.5),
+    "temperature_25_125c": ({"temperature_c": 125.0}, 5.0),
+}
+
+
+def _ramp_once(cfg: object, target: dict, duration_s: float, **kw: float) -> tuple[dict, np.ndarray]:
+    sim = Simulator(cfg, speed_rpm=3000.0, temperature_c=25.0, output_rate_hz=OUTPUT_RATE_HZ, **kw)
+    sim.advance(0.3)
+    w0 = time.perf_counter()
+    sim.advance(1.0)
+    steady = 1.0 / (time.perf_counter() - w0)
+    sim.set_targets(**target)
+    la0 = _load()
+    w0, c0 = time.perf_counter(), time.process_time()
+    data = np.asarray(sim.advance(duration_s).data)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    return {
+        "rtf": duration_s / wall,
+        "rtf_cpu": duration_s / cpu,
+        "steady_rtf": steady,
+        "load": (la0, _load()),
+    }, data
+
+
+def ramp_rtf(cfg: object, reference: bool) -> dict:
+    """(i): both ramps, cold and warm eigenbasis cache, optionally against the per-quantum rebuild."""
+    import tempfile
+
+    from gear_rotor_sim.simulator import TEMPERATURE_QUANTUM_C
+    from gear_rotor_sim.solver import basis_cache, newmark
+    from gear_rotor_sim.solver.newmark import SPEED_QUANTUM_REL
+
+    out: dict = {}
+    old = os.environ.get("GEAR_ROTOR_SIM_BASIS_CACHE")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = tmp
+        try:
+            for name, (target, dur) in RAMPS.items():
+                r: dict = {}
+                for label in ("cold", "warm"):
+                    newmark._BASIS_MEMO.clear()  # a new process: only the disk cache carries over
+                    basis_cache._RECENT.clear()
+                    r[label], data = _ramp_once(cfg, target, dur)
+                if reference:
+                    newmark._BASIS_MEMO.clear()
+                    basis_cache._RECENT.clear()
+                    os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = "off"
+                    grids = {"ramp_speed_quantum_rel": SPEED_QUANTUM_REL,
+                             "ramp_temperature_quantum_c": TEMPERATURE_QUANTUM_C}  # fmt: skip
+                    r["per_quantum"], ref = _ramp_once(cfg, target, dur, **grids)
+                    os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = tmp
+                    rms = np.sqrt(np.mean(ref**2, axis=0))
+                    diff = np.sqrt(np.mean((data - ref) ** 2, axis=0))
+                    live = rms > 0.0
+                    r["max_rms_diff_pct"] = float(np.max(100.0 * diff[live] / rms[live]))
+                out[name] = r
+        finally:
+            if old is None:
+                os.environ.pop("GEAR_ROTOR_SIM_BASIS_CACHE", None)
+            else:
+                os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = old
+    return out
+
+
+def measure(quick: bool = True, ramps: bool = False) -> dict:
+    """Benchmark figures; ``quick`` keeps it under about a minute (no sweep, shorter runs); ``ramps``
+    adds part (i)."""
     repeats = 5
     cfg = paper_gearbox()
     system = GearRotorSystem.from_config(cfg, 25.0)
@@ -344,6 +418,8 @@ def measure(quick: bool = True) -> dict:
         one["extrapolated_400_s"] = one["wall_s"] * 10.0
         res["sweep_40_one_worker"] = one
         res["sweep_400_default_workers"] = sweep_time(400, 0)
+    if ramps:
+        res["ramps"] = ramp_rtf(cfg, reference=not quick)
     res["load_end"] = os.getloadavg()
     res["steps_per_s"] = min(res["steady"][f"dte_{r:.0f}rpm"]["steps_per_s"] for r in SPEEDS_RPM)
     res["rtf_3000rpm"] = res["simulator"]["dte_3000rpm"]["rtf"]
@@ -444,6 +520,24 @@ def report(res: dict) -> None:
         f"{res['max_rms_dte_error_pct']:.3f} % over the non-chaotic points (the full model with the same dt "
         f"rule alongside)\n  {pts}"
     )
+    if "ramps" in res:
+        print(
+            "\n(i) ramps, 16 default channels, from steady 3000 rpm / 25 C (RTF wall | CPU; the steady RTF "
+            "just before, same simulator)"
+        )
+        for key, r in res["ramps"].items():
+            for label in ("cold", "warm", "per_quantum"):
+                if label in r:
+                    x = r[label]
+                    print(
+                        f"  {key:22s} {label:11s} RTF {x['rtf']:6.2f} | {x['rtf_cpu']:6.2f}  "
+                        f"(steady {x['steady_rtf']:6.2f}; load {x['load'][0]:.1f}->{x['load'][1]:.1f})"
+                    )
+            if "max_rms_diff_pct" in r:
+                print(
+                    f"  {key:22s} default against per-quantum: max RMS difference "
+                    f"{r['max_rms_diff_pct']:.3f} %"
+                )
     print(f"\nload average at end {tuple(round(x, 2) for x in res['load_end'])}")
     print(
         "\nGOALS: steps/s (simulate_steady, DTE only, min over 3000/20000 rpm) "
@@ -460,7 +554,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", default="")
     args = ap.parse_args()
-    res = measure(args.quick)
+    res = measure(args.quick, ramps=True)
     report(res)
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:

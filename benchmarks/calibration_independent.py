@@ -24,6 +24,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -117,21 +118,33 @@ def calibrate(csv: Path, baseline: Path | None) -> dict[str, Any]:
     if baseline is not None:
         cmd += ["--baseline", str(baseline)]
     t = time.perf_counter()
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     p = subprocess.run(cmd, capture_output=True, text=True)
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     wall = time.perf_counter() - t
+    # CPU time of this calibration alone (the worker runs one subprocess at a time): on a shared
+    # machine the wall time mostly measures the other jobs
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if p.returncode != 0:
-        return {"failed": True, "stderr": p.stderr[-2000:], "wall_s": wall}
+        return {"failed": True, "stderr": p.stderr[-2000:], "wall_s": wall, "cpu_s": cpu}
     try:
         d = json.loads(p.stdout)
     except json.JSONDecodeError:
-        return {"failed": True, "stderr": "no JSON on stdout: " + p.stdout[-500:], "wall_s": wall}
+        err = "no JSON on stdout: " + p.stdout[-500:]
+        return {"failed": True, "stderr": err, "wall_s": wall, "cpu_s": cpu}
     d["wall_s"] = wall
+    d["cpu_s"] = cpu
     return d
 
 
 def judge(case: Case, res: dict[str, Any]) -> dict[str, Any]:
     """Verdicts of one record against the issue-11 criteria."""
-    row: dict[str, Any] = {"record": case.tag, "truth": case.fault or "healthy", "wall_s": res.get("wall_s")}
+    row: dict[str, Any] = {
+        "record": case.tag,
+        "truth": case.fault or "healthy",
+        "wall_s": res.get("wall_s"),
+        "cpu_s": res.get("cpu_s"),
+    }
     if res.get("failed"):
         row.update(first="calibrate failed", verdict="FAIL (calibrate failed)", error=res.get("stderr"))
         return row
@@ -189,8 +202,8 @@ def _fmt(x: Any, spec: str = ".3g") -> str:
 def table(rows: list[dict[str, Any]]) -> str:
     head = (
         "| record | truth | first effect | main parameter: fitted / truth (error) | error_before | "
-        "error_after | ratio | named first | within 25 % | halved | verdict | wall (s) |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "error_after | ratio | named first | within 25 % | halved | verdict | wall (s) | CPU (s) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     )
     lines = []
     for r in rows:
@@ -209,7 +222,7 @@ def table(rows: list[dict[str, Any]]) -> str:
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {first} | {par} | {_fmt(r.get('error_before'))} | "
             f"{_fmt(r.get('error_after'))} | {_fmt(r.get('ratio'), '.2f')} | {mk[0]} | {mk[1]} | {mk[2]} | "
-            f"{r['verdict']} | {_fmt(r.get('wall_s'), '.0f')} |"
+            f"{r['verdict']} | {_fmt(r.get('wall_s'), '.0f')} | {_fmt(r.get('cpu_s'), '.0f')} |"
         )
     return head + "\n".join(lines) + "\n"
 
@@ -246,6 +259,9 @@ def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str) -> str:
     if walls:
         med, worst = walls[len(walls) // 2], walls[-1]
         text += f". Calibration wall time per record: median {med:.0f} s, max {worst:.0f} s"
+    cpus = sorted(r["cpu_s"] for r in done if r.get("cpu_s") is not None)
+    if cpus:
+        text += f"; CPU time per record: median {cpus[len(cpus) // 2]:.0f} s, max {cpus[-1]:.0f} s"
     return text + f"; {note}.\n"
 
 

@@ -52,7 +52,7 @@ from gear_rotor_sim.analysis.paper_data import (
     STIFFNESS_SCALES,
     rel_error,
 )
-from gear_rotor_sim.analysis.reproduction_report import main_band, write_report
+from gear_rotor_sim.analysis.reproduction_report import PUBLISHED_CONFIG, main_band, write_report
 from gear_rotor_sim.analysis.sweep import grid_cases, run_sweep
 from gear_rotor_sim.examples import PAPER_CONFIGS
 
@@ -507,6 +507,11 @@ def compute(
         r["fig6_25c_main_band_fine"] = refine_main_band(
             panels["25C"], bif["25C"].chaotic_windows(merge_gap=1), plan.fig6
         )
+        if config == PUBLISHED_CONFIG and plan.name != "tiny":
+            from gear_rotor_sim.analysis.readings import readings_study
+
+            # readings of the paper's text tried against the Fig 6 bands (docs/REPRODUCTION.md)
+            r["readings"] = readings_study(plan.fig6, np.array(plan.fig6_speeds))
     if plan.single_speed_figures:
         _single_speed_figures(fig_dir, plan)
 

@@ -88,6 +88,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gear_rotor_sim.calibration import cwru
+    from gear_rotor_sim.calibration.baseline import fit_reference_baseline
     from gear_rotor_sim.calibration.fit import Calibrator, FitSettings
     from gear_rotor_sim.calibration.report import result_json, write_report
     from gear_rotor_sim.calibration.residual import ResidualSettings
@@ -140,18 +141,16 @@ def run(args: argparse.Namespace) -> int:
                 if args.gearbox:
                     href.gearbox, href.bearing_type = args.gearbox, None
                 log(f"baseline: calibrating on {args.baseline}")
-                rb = Calibrator(
+                rb = fit_reference_baseline(
                     href,
-                    settings=ResidualSettings(**vars(settings)),
-                    fit_settings=FitSettings(max_effects=0),
+                    source=str(args.baseline),
+                    settings=settings,
                     steps_per_mesh=args.steps_per_mesh,
                     log=log,
-                ).run()
-                ref = {
-                    "baseline": rb.baseline_effects,
-                    "baseline_source": str(args.baseline),
-                    "carrier_tolerance": rb.model_form.get("carrier_tolerance"),
-                }
+                )
+                for note in rb.notes:
+                    log(f"baseline: {note}")
+                ref = rb.calibrator_kwargs()
             cal = Calibrator(m, settings=settings, steps_per_mesh=args.steps_per_mesh, log=log, **ref)
         if args.tolerance is not None:
             cal.settings.tolerance = args.tolerance

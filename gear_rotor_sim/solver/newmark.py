@@ -23,9 +23,10 @@ same map is run with the dense real transition matrix ``T = (I - hA/2)^-1 (I + h
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,7 +57,7 @@ _ALIGN = 64
 def aligned_zeros(shape: int | tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
     """C-contiguous zeros whose data pointer is 64-byte aligned."""
     shape_t = (shape,) if isinstance(shape, int) else tuple(shape)
-    n = int(np.prod(shape_t)) if shape_t else 1
+    n = math.prod(shape_t)
     item = np.dtype(dtype).itemsize
     buf = np.zeros(n * item + _ALIGN, dtype=np.uint8)
     off = (-buf.ctypes.data) % _ALIGN
@@ -1120,6 +1121,9 @@ class NewmarkStepper:
     locate_events : bool
         Gear kernel: split steps at the mesh-table jumps and contact changes of any mesh inside them
         (docs/solver.md); False takes every event at the step instants, as the general kernel does.
+    lin : LinearModel, optional
+        The linear model of ``system`` with ``effects`` if already at hand (the ramp systems of
+        :mod:`gear_rotor_sim.solver.rebase` derive it from their grid node's); None builds it.
     """
 
     def __init__(
@@ -1131,13 +1135,17 @@ class NewmarkStepper:
         cache_size: int = 16,
         disable_fast: bool = False,
         locate_events: bool = False,
+        lin: LinearModel | None = None,
     ) -> None:
         self.system = system
         self.specs = list(specs)
         self.effects = tuple(effects)
-        self.lin = LinearModel(system, effect_columns(system, self.effects))
+        self.lin = LinearModel(system, effect_columns(system, self.effects)) if lin is None else lin
         self.force_dense = force_dense
         self._bases: OrderedDict[float, Basis] = OrderedDict()
+        # where a basis not in the cache comes from (None: eigen_basis of ``lin``); the ramp systems of
+        # solver/rebase.py take their grid node's bases (the same state matrix)
+        self.basis_source: Callable[[float], Basis] | None = None
         self._cache_size = cache_size
         self.map: StepMap | None = None
         self.row_index = [i for i, s in enumerate(self.specs) if s.kind == "row"]
@@ -1161,29 +1169,14 @@ class NewmarkStepper:
     def basis(self, omega: float) -> Basis:
         b = self._bases.get(omega)
         if b is None:
-            b = eigen_basis(self.lin, omega, self.force_dense)
+            src = self.basis_source
+            b = eigen_basis(self.lin, omega, self.force_dense) if src is None else src(omega)
             self._bases[omega] = b
             if len(self._bases) > self._cache_size:
                 self._bases.popitem(last=False)
         else:
             self._bases.move_to_end(omega)
         return b
-
-    def share_bases(self, other: NewmarkStepper) -> None:
-        """Use (and fill) ``other``'s eigenbasis cache: the two must have the same linear part.
-
-        For the ramp systems of :mod:`gear_rotor_sim.solver.rebase`, which keep a grid node's M, K, C,
-        G and mean mesh terms and change only the static load and the mesh tables: the state matrix
-        is the node's bit for bit, so are its eigenbases. Raises ValueError if the linear parts differ.
-        """
-        a, b = self.lin, other.lin
-        same = a.nfree == b.nfree and all(
-            np.array_equal(getattr(a, k), getattr(b, k)) for k in ("M", "MinvK", "MinvC", "MinvG", "V")
-        )
-        same = same and np.array_equal(a.MinvF[:, 1:], b.MinvF[:, 1:])  # the forced-mode order
-        if not same:
-            raise ValueError("share_bases: the linear parts differ (the eigenbases would not be exact)")
-        self._bases = other._bases
 
     def set_operating_point(self, omega: float, dt: float, state: SolverState) -> None:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
