@@ -361,8 +361,9 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         "A reading is adopted into `paper_sun2021_as_published` only if it brings all three panels "
         "within +-700 rpm (it is meant to reproduce Fig 6, not one edge of one panel); "
         + (
-            "none does, so the configuration keeps the Eq 32 reading alone and its Fig 6a band stays "
-            "the one above."
+            "none does, so the configuration keeps the Eq 32 reading alone: its Fig 6a band stays the "
+            "one above and its Figs 7 and 8 are those below (the readings' own Figs 7 and 8 were not "
+            "computed)."
             if not all_in
             else f"{all_in[0]} does."
         )
