@@ -551,6 +551,9 @@ class ResidualSettings:
     envelope_non_synchronous: bool = True
     #: envelope features only on the channels at a bearing (bearing force, housing acceleration), if any
     envelope_at_bearings: bool = True
+    #: largest non-synchronous share of the healthy model's RMS at a bearing channel for the
+    #: non-synchronous envelope (above it the gear dynamics is not periodic: whole-signal envelope)
+    envelope_periodic_limit: float = 0.01
 
 
 class Comparison:
@@ -608,8 +611,12 @@ class Comparison:
                 self.d_order.append(cs)
                 self.v_order.append(vs)
             self._guard_zero_variance(measurement)
+        # transfer-slope abscissa: log10 of the frequency over the mesh frequency, held at the edges of
+        # the mesh-carrier band (harmonics 1..M) where the slope is fitted: a slope seen over half a
+        # decade of carriers is not extrapolated a decade down to the shaft orders
+        x_hi = float(np.log10(max(settings.mesh_harmonics, 1)))
         self._xf = [
-            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), -1.0, 1.0)
+            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), 0.0, x_hi)
             if self.mesh_hz
             else np.zeros(sh.orders.size)
             for sh in self.shafts
@@ -622,6 +629,7 @@ class Comparison:
         at_bearing = np.array([n.startswith("bearing") for n in self.names], dtype=bool)
         use_bearings = settings.envelope_at_bearings and bool(at_bearing.any())
         self.env_use = at_bearing if use_bearings else np.ones(self.nc, dtype=bool)
+        self.env_non_sync = False
         self.d_env: list[np.ndarray] = []
         self.env_f: np.ndarray = np.zeros(0)
         self.env_k = 1.0
@@ -712,6 +720,7 @@ class Comparison:
     def set_baseline(self, model: np.ndarray) -> None:
         """Fix the time shift and the envelope bands from the healthy model."""
         if "envelope" in self.families:
+            self._choose_envelope_input(model)
             y = self.y[: model.shape[0]]  # the model may cover whole hunting periods only
             resid = y - model * self._quick_gains(model)
             self.bands = []
@@ -753,10 +762,41 @@ class Comparison:
                         "features"
                     )
 
+    def _choose_envelope_input(self, model: np.ndarray) -> None:
+        """Envelope of the non-synchronous part at the bearings' channels, or of the whole signal at
+        every channel.
+
+        The non-synchronous part is a clean bearing channel only where the gear dynamics is periodic:
+        the healthy model's own non-synchronous content at the bearings' channels must stay below
+        ``envelope_periodic_limit`` of its RMS. Where the model predicts non-periodic gear dynamics
+        (teeth separating, quasi-periodic response), that content changes with every gear or thermal
+        parameter in a way superposed basis runs cannot follow, and the whole-signal envelope on
+        every channel is used instead (as without a precise speed).
+        """
+        self.env_non_sync = bool(self.s.envelope_non_synchronous and "order" in self.families and self.shafts)
+        if self.env_non_sync:
+            idx = np.flatnonzero(self.env_use)
+            ratios = []
+            for c in idx:
+                x = model[:, c] - model[:, c].mean()
+                sd = float(np.std(x))
+                if sd > 0:
+                    ratios.append(float(np.std(self._envelope_input(x))) / sd)
+            worst = max(ratios, default=0.0)
+            if worst > self.s.envelope_periodic_limit:
+                self.env_non_sync = False
+                self.m.issues.append(
+                    f"envelope: the healthy model's response is not periodic at this operating point "
+                    f"(non-synchronous part {100 * worst:.2g} % of the RMS at a bearing channel > "
+                    f"{100 * self.s.envelope_periodic_limit:.2g} %): whole-signal envelope on every channel"
+                )
+        if not self.env_non_sync:
+            self.env_use = np.ones(self.nc, dtype=bool)
+
     def _envelope_input(self, x: np.ndarray) -> np.ndarray:
         """Signal whose envelope is analysed: without every shaft's synchronous part when the speed is
         known precisely (order family active; ``features_orders.remove_synchronous``), else as is."""
-        if not (self.s.envelope_non_synchronous and "order" in self.families and self.shafts):
+        if not self.env_non_sync:
             return x
         return remove_synchronous(x, self.fs, [sh.ratio * self.speed_hz for sh in self.shafts])
 
@@ -835,8 +875,13 @@ class Comparison:
         )
         return ModelFeatures(order, analytic, np.asarray(model.mean(axis=0), dtype=float))
 
-    def shifted(self, feats: ModelFeatures, dt: float) -> ModelFeatures:
-        """Features of the signal delayed by ``dt`` (order phases; analytic signal by FFT shift)."""
+    def shifted(self, feats: ModelFeatures, dt: float, analytic: bool = True) -> ModelFeatures:
+        """Features of the signal delayed by ``dt`` (order phases; analytic signal by FFT shift).
+
+        ``analytic=False`` keeps the analytic signals: a damaged tooth's envelope change (of the
+        non-synchronous part) does not depend on which tooth it is, while a circular shift of a
+        non-periodic response difference would misplace it against the unshifted model.
+        """
         order = []
         for cs in feats.order:
             order.append(
@@ -845,11 +890,13 @@ class Comparison:
                     for co, sh in zip(cs, self.shafts, strict=True)
                 ]
             )
-        analytic = []
+        if not analytic:
+            return ModelFeatures(order, feats.analytic, feats.static)
+        out = []
         for a in feats.analytic:
             f = np.fft.fftfreq(a.size, 1.0 / self.fs)
-            analytic.append(np.fft.ifft(np.fft.fft(a) * np.exp(-2j * np.pi * f * dt)))
-        return ModelFeatures(order, analytic, feats.static)
+            out.append(np.fft.ifft(np.fft.fft(a) * np.exp(-2j * np.pi * f * dt)))
+        return ModelFeatures(order, out, feats.static)
 
     # ---------------------------------------------------------------------------------- scoring
     def carriers(self, s: int) -> np.ndarray:
@@ -928,7 +975,8 @@ class Comparison:
 
     def order_gain(self, g: np.ndarray, c: int, s: int) -> np.ndarray | float:
         """Per-feature gain of channel ``c`` on shaft ``s``: ``g0 (1 + b x)``, ``x = log10(f / f_mesh)``
-        clipped to one decade either side (the smooth transfer correction; ``g`` is (nc,) or (nc, 2))."""
+        held within the mesh-carrier band ``[0, log10 M]`` where ``b`` is fitted (the smooth transfer
+        correction; ``g`` is (nc,) or (nc, 2))."""
         if g.ndim == 1:
             return g[c]
         return g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
