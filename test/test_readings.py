@@ -78,3 +78,41 @@ def test_report_names_the_readings_inside_the_band() -> None:
     text = "\n".join(lines)
     assert "Fig 6a main band within +-700 rpm of the paper's at both edges: reading b." in text
     assert "12775-14800 (-725 / +100)" in text
+
+
+def test_lower_edge_detail_reports_the_jump_into_chaos() -> None:
+    """Two period-1 speeds (constant section) then three with an uncorrelated section (chaos by the
+    0-1 test): the detail lists them with K and the section spread around the edge."""
+    from gear_rotor_sim.analysis.bifurcation import BifurcationResult
+    from gear_rotor_sim.analysis.readings import lower_edge_detail
+
+    rng = np.random.default_rng(1)
+    n, m = 5, 200
+    section = np.zeros((n, m))
+    section[2:] = rng.uniform(-1e-5, 1e-5, (3, m))
+    res = BifurcationResult(
+        case=reading_case(_reading("as_published"), "25C"),
+        speeds_rpm=np.array([100.0, 200.0, 300.0, 400.0, 500.0]),
+        section=section,
+        section_v=np.zeros((n, m)),
+        dte_min=np.full(n, -1e-5),
+        dte_max=np.full(n, 1e-5),
+        dte_rms=np.full(n, 5e-6),
+        dte_v_range=np.ones(n),
+        settings=RunSettings(10, m, 16, 2.0),
+        wall_time_s=0.0,
+    )
+    d = lower_edge_detail(res, 300.0)
+    assert [e["speed_rpm"] for e in d] == [100.0, 200.0, 300.0, 400.0, 500.0]
+    assert [e["label"] for e in d] == ["period-1", "period-1", "chaotic", "chaotic", "chaotic"]
+    assert all(e["k"] > 0.8 for e in d[2:]) and all(e["section_spread"] == 0.0 for e in d[:2])
+
+
+def test_edge_verdict_tells_a_jump_from_weak_chaos() -> None:
+    from gear_rotor_sim.analysis.reproduction_report import _edge_verdict
+
+    jump = [{"speed_rpm": 100.0, "label": "period-2", "k": float("nan"), "section_spread": 0.4},
+            {"speed_rpm": 200.0, "label": "chaotic", "k": 0.99, "section_spread": 0.7}]  # fmt: skip
+    weak = [{**jump[0]}, {**jump[1], "k": 0.6}]
+    assert "fully developed chaos (K 0.99 at 200 rpm)" in _edge_verdict(jump)
+    assert "weak chaos (K 0.60 at 200 rpm)" in _edge_verdict(weak)

@@ -131,6 +131,29 @@ def main_band_of(res: BifurcationResult, gap_rpm: float, above_rpm: float = 1100
     return max(joined, key=lambda w: w[1] - w[0])
 
 
+def lower_edge_detail(
+    res: BifurcationResult, edge_rpm: float, before: int = 2, after: int = 3
+) -> list[dict[str, Any]]:
+    """Motion, 0-1 test statistic K and spread of the Poincare section (peak-to-peak over the DTE
+    range) at the speeds around the lower edge of a band: whether the edge is a detection threshold
+    (weak, narrow-band chaos that a bifurcation diagram would show as multi-period) or a jump into
+    fully developed chaos."""
+    motions = res.classify()
+    i = int(np.searchsorted(res.speeds_rpm, edge_rpm))
+    out = []
+    for j in range(max(i - before, 0), min(i + after, res.speeds_rpm.size)):
+        rng = float(res.dte_max[j] - res.dte_min[j])
+        out.append(
+            {
+                "speed_rpm": float(res.speeds_rpm[j]),
+                "label": motions[j].label,
+                "k": float(motions[j].k),
+                "section_spread": float(np.ptp(res.section[j]) / rng) if rng > 0 else 0.0,
+            }
+        )
+    return out
+
+
 def readings_study(
     settings: RunSettings,
     coarse_speeds_rpm: np.ndarray,
@@ -153,6 +176,7 @@ def readings_study(
 
     t0 = time.perf_counter()
     rows = []
+    edge: list[dict[str, Any]] = []
     for rd in readings:
         bands, errors, windows = {}, {}, {}
         for panel in panels:
@@ -164,6 +188,8 @@ def readings_study(
             bands[panel] = [float(b[0]), float(b[1])]
             errors[panel] = [float(b[0] - plo), float(b[1] - phi)]
             windows[panel] = [[float(a), float(c)] for a, c in res.chaotic_windows(merge_gap=1)]
+            if rd.key == readings[0].key and panel == "25C" and np.isfinite(b[0]):
+                edge = lower_edge_detail(res, b[0])
         coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward)
         sequence = _condensed(coarse.windows(), 3, coarse.speeds_rpm)
         rows.append(
@@ -183,5 +209,6 @@ def readings_study(
         "gap_rpm": gap_rpm,
         "fine_windows_rpm": {k: list(v) for k, v in FINE_WINDOWS.items() if k in panels},
         "paper_rpm": {k: list(PAPER_CHAOS[k][0]) for k in panels},
+        "lower_edge_25c": edge,
         "wall_time_s": time.perf_counter() - t0,
     }

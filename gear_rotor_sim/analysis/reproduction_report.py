@@ -295,6 +295,23 @@ def _within(errors: list[float], tol: float = 700.0) -> bool:
     return all(np.isfinite(e) and abs(e) <= tol for e in errors)
 
 
+def _edge_verdict(edge: list[dict[str, Any]]) -> str:
+    """Whether a detection threshold (on K, or on the spread of the section as a bifurcation diagram is
+    read by eye) could move the band's lower edge: only if its first chaotic speed is weak chaos."""
+    first = next((e for e in edge if e["label"] == "chaotic"), None)
+    if first is None:
+        return ""
+    if first["k"] >= 0.9:
+        return (
+            f"The band starts with a jump into fully developed chaos (K {first['k']:.2f} at "
+            f"{first['speed_rpm']:.0f} rpm): no detection threshold between K 0.5 and 0.9 moves this edge."
+        )
+    return (
+        f"The first chaotic speed is weak chaos (K {first['k']:.2f} at {first['speed_rpm']:.0f} rpm): a "
+        "stricter detection threshold would move this edge up."
+    )
+
+
 def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
     """Table of the readings of the paper (gear_rotor_sim/analysis/readings.py) against Fig 6."""
     panels = list(rd["paper_rpm"])
@@ -344,8 +361,9 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         "A reading is adopted into `paper_sun2021_as_published` only if it brings all three panels "
         "within +-700 rpm (it is meant to reproduce Fig 6, not one edge of one panel); "
         + (
-            "none does, so the configuration keeps the Eq 32 reading alone and its Fig 6a band stays "
-            "the one above."
+            "none does, so the configuration keeps the Eq 32 reading alone: its Fig 6a band stays the "
+            "one above and its Figs 7 and 8 are those below (the readings' own Figs 7 and 8 were not "
+            "computed)."
             if not all_in
             else f"{all_in[0]} does."
         )
@@ -357,6 +375,21 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"])
         add(f"- {x['title']}: {seq}.")
     add("")
+    edge = rd.get("lower_edge_25c") or []
+    if edge:
+        add(
+            "Lower edge of the as-published 25 C band on the fine grid (0-1 test statistic K, chaos at "
+            "K >= 0.5; spread = peak-to-peak of the Poincare section over the DTE range): "
+            + "; ".join(
+                f"{e['speed_rpm']:.0f} rpm {e['label']}"
+                + (f" K {e['k']:.2f}" if np.isfinite(e["k"]) else "")
+                + f" spread {e['section_spread']:.2f}"
+                for e in edge
+            )
+            + ". "
+            + _edge_verdict(edge)
+        )
+        add("")
     add(PAPER_25C_LOWER_EDGE_TEXT)
     add("")
 

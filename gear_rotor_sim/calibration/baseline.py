@@ -25,8 +25,11 @@ operating point, and why:
 
 from __future__ import annotations
 
+import json
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from gear_rotor_sim.calibration.measurement import Measurement
@@ -87,6 +90,69 @@ class ReferenceBaseline:
             "refitted_per_record": ["sensor gains", "transfer slopes", "noise", "envelope bands"],
             "notes": list(self.notes),
         }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the reference as JSON (``calibrate --save-baseline``; read by :func:`load_reference`)."""
+        p = Path(path)
+        p.write_text(json.dumps({"format": REFERENCE_FORMAT, **self.as_dict()}, indent=1))
+        return p
+
+
+#: ``format`` tag of a saved reference baseline
+REFERENCE_FORMAT = "gear_rotor_sim.reference_baseline/1"
+
+
+def load_reference(path: str | Path) -> ReferenceBaseline:
+    """Read a reference baseline written by :meth:`ReferenceBaseline.save`.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the field when the file is not such a reference or a value is out of range.
+    """
+    p = Path(path)
+    try:
+        d = json.loads(p.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{p}: not a readable JSON reference baseline ({exc})") from exc
+    if not isinstance(d, dict) or d.get("format") != REFERENCE_FORMAT:
+        raise ValueError(f"{p}: field 'format' must be {REFERENCE_FORMAT!r} (written by --save-baseline)")
+    by_name = {t.name: t for t in BASELINE_TYPES}
+    effects: list[Effect] = []
+    for i, u in enumerate(d.get("updates") or []):
+        where = f"{p}: updates[{i}]"
+        if not isinstance(u, dict) or u.get("name") not in by_name:
+            raise ValueError(f"{where}.name must be one of {sorted(by_name)}")
+        cls = by_name[u["name"]]
+        params = u.get("parameters") or {}
+        kw: dict[str, float] = {}
+        for spec in cls.specs:
+            v = params.get(spec.name)
+            if not isinstance(v, int | float) or not (spec.lower <= float(v) <= spec.upper):
+                raise ValueError(
+                    f"{where}.parameters.{spec.name} = {v!r}: must be a number in "
+                    f"[{spec.lower}, {spec.upper}]"
+                )
+            kw[spec.name] = float(v)
+        effects.append(cls(**kw))
+    ct = d.get("carrier_tolerance")
+    if not isinstance(ct, int | float) or not (0.0 < float(ct) <= 1.0):
+        raise ValueError(f"{p}: field 'carrier_tolerance' = {ct!r}: must be a number in (0, 1]")
+    op = d.get("operating_point") or {}
+
+    def num(x: Any) -> float:
+        return float(x) if isinstance(x, int | float) else math.nan
+
+    return ReferenceBaseline(
+        effects=tuple(effects),
+        carrier_tolerance=float(ct),
+        source=str(d.get("source", p)),
+        speed_rpm=num(op.get("speed_rpm")),
+        temperature_c=num(op.get("temperature_c")),
+        error_before=num(d.get("error_before")),
+        error_after=num(d.get("error_after")),
+        notes=tuple(str(n) for n in d.get("notes") or []),
+    )
 
 
 def fit_reference_baseline(
