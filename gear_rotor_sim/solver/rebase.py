@@ -378,7 +378,7 @@ class RampSpan:
             cs.append(w if w > 0.0 and side * (temperature_c - t_n) > 0.0 else 0.0)
         return cs
 
-    def _prepare(self, omega: float, dt: float, cut: float | None, state: Any, exact: bool = False) -> None:
+    def _prepare(self, omega: float, dt: float, cut: float | None, exact: bool, state: Any) -> None:
         """Maps of the node, of each unit load added, of each neighbour's tables at (omega, dt)."""
         ns = self.near_system
         # each unit load scaled to the static load's norm: the difference of the two maps then keeps
@@ -426,14 +426,16 @@ class RampSpan:
         exact: bool = False,
     ) -> tuple[NewmarkStepper, bool]:
         """Set the span's stepper to the ramp system ``system`` (:func:`ramp_system` at a quantum
-        within half a grid step of the node) at speed omega, step dt and modal cut-off ``cut``;
-        ``state`` (a SolverState) is only read to build the maps. Returns the stepper and whether its
+        within half a grid step of the node) at speed omega, step dt, modal cut-off ``cut`` and
+        modal map (``exact``: ``NewmarkStepper.exact_map``); ``state`` (a SolverState) is only read to
+        build the maps. Returns the stepper and whether its
         modal state carries on (True: it already ran this span at the same speed and step; False:
-        load the state into it). ``exact``: the exact modal map (``NewmarkStepper.exact_map``)."""
+        load the state into it)."""
         if self._key != (omega, dt, cut, exact):
-            self._prepare(omega, dt, cut, state, exact)
+            self._prepare(omega, dt, cut, exact, state)
         st = self.stepper
         carry = st.map is not None and st.map.basis.omega == omega and st.map.dt == dt
+        carry = carry and st.map.exact == self._base[0].exact  # type: ignore[index]
         carry = carry and self._base is not None and st.map.basis is self._base[0].basis
         coefs = self._coefficients(system.temperature_c)
         base_map, base_gear = self._base  # type: ignore[misc]
