@@ -1,6 +1,8 @@
 """Solver benchmark on the paper gearbox (prints figures; not a test). Run with OPENBLAS_NUM_THREADS=1.
 
-Full model (108 DOF, 107 free, no modal truncation), one process (one core), 25 C. Every figure is
+Parts (a) and (c) run the full model (108 DOF, 107 free, no modal truncation); the Simulator parts run
+the default model (modal reduction with static correction, ``modal_cutoff_hz="auto"``) unless they
+compare it with the full one ((f), (g), (h)). One process (one core), 25 C. Every figure is
 the median of ``repeats`` (>= 5) timed runs, as wall time (``time.perf_counter``) and CPU time of
 the process (``time.process_time``); the load average (``os.getloadavg``) is printed with each part
 because the machine is shared.
@@ -20,8 +22,8 @@ because the machine is shared.
     periods, the default dt rule, continuation) over 500-20000 rpm: 40 speeds on one worker, extrapolated
     to 400 (labelled), and the full 400 speeds on the default (2) workers, set-up included.
 
-(f) the two-stage example, full against reduced model (``modal_cutoff_hz="auto"``, the default on
-    multi-mesh rigs) at 3000 / 7000 / 12000 / 20000 rpm, interleaved: RTF, retained modes, speed-up and
+(f) the two-stage example, full against reduced model (``modal_cutoff_hz="auto"``, the default) at
+    3000 / 7000 / 12000 / 20000 rpm, interleaved: RTF, retained modes, speed-up and
     the RMS DTE difference of the last chunk (same dt rule, sample by sample).
 (e) the two-stage example (``config/two_stage_example.yaml``, three shafts, two meshes, the
     multi-mesh kernel) next to the paper gearbox: ``Simulator.advance`` RTF with the DTE channels only
@@ -30,7 +32,20 @@ because the machine is shared.
     integration steps per second of each.
 
 (g) the default model against the full model on the paper gearbox (``reproduce.default_against_full``:
-    the ``speedup_vs_full`` and ``max_rms_dte_error_pct`` keys of ``reproduce --json``).
+    the ``speedup_vs_full`` and ``max_rms_dte_error_pct`` keys of ``reproduce --json``): accuracy of
+    the default (reduced, dt rule) and of the full model with the same rule against the full model at
+    1024 located steps per mesh period.
+(h) the paper gearbox, full against reduced (default) model side by side, interleaved, DTE only, at
+    3000 / 7000 / 12000 / 20000 rpm: RTF, integration steps per second, retained modes, speed-up and
+    the RMS DTE difference of the last chunk.
+(i) ramps (this script only, not ``reproduce``): ``Simulator.advance`` with the 16 default channels from
+    steady 3000 rpm / 25 C through 3000 -> 6000 rpm at 2000 rpm/s (1.5 s) and 25 -> 125 C at 20 C/s
+    (5 s), each next to the steady RTF measured just before it in the same simulator; with an empty
+    eigenbasis disk cache ("cold", a first run) and again with the cache it filled ("warm", a later
+    run; the in-process basis memo cleared). Without ``--quick`` also the per-quantum rebuild
+    (``ramp_speed_quantum_rel=SPEED_QUANTUM_REL``, ``ramp_temperature_quantum_c=TEMPERATURE_QUANTUM_C``)
+    and the largest RMS difference of the default stream from it over the channels, % of the channel's
+    RMS.
 
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
@@ -278,8 +293,74 @@ def sweep_time(n_speeds: int, workers: int) -> dict:
     }
 
 
-def measure(quick: bool = True) -> dict:
-    """Benchmark figures; ``quick`` keeps it under about a minute (no sweep, shorter runs)."""
+RAMPS = {
+    "speed_3000_6000rpm": ({"speed_rpm": 6000.0}, 1.5),
+    "temperature_25_125c": ({"temperature_c": 125.0}, 5.0),
+}
+
+
+def _ramp_once(cfg: object, target: dict, duration_s: float, **kw: float) -> tuple[dict, np.ndarray]:
+    sim = Simulator(cfg, speed_rpm=3000.0, temperature_c=25.0, output_rate_hz=OUTPUT_RATE_HZ, **kw)
+    sim.advance(0.3)
+    w0 = time.perf_counter()
+    sim.advance(1.0)
+    steady = 1.0 / (time.perf_counter() - w0)
+    sim.set_targets(**target)
+    la0 = _load()
+    w0, c0 = time.perf_counter(), time.process_time()
+    data = np.asarray(sim.advance(duration_s).data)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    return {
+        "rtf": duration_s / wall,
+        "rtf_cpu": duration_s / cpu,
+        "steady_rtf": steady,
+        "load": (la0, _load()),
+    }, data
+
+
+def ramp_rtf(cfg: object, reference: bool) -> dict:
+    """(i): both ramps, cold and warm eigenbasis cache, optionally against the per-quantum rebuild."""
+    import tempfile
+
+    from gear_rotor_sim.simulator import TEMPERATURE_QUANTUM_C
+    from gear_rotor_sim.solver import basis_cache, newmark
+    from gear_rotor_sim.solver.newmark import SPEED_QUANTUM_REL
+
+    out: dict = {}
+    old = os.environ.get("GEAR_ROTOR_SIM_BASIS_CACHE")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = tmp
+        try:
+            for name, (target, dur) in RAMPS.items():
+                r: dict = {}
+                for label in ("cold", "warm"):
+                    newmark._BASIS_MEMO.clear()  # a new process: only the disk cache carries over
+                    basis_cache._RECENT.clear()
+                    r[label], data = _ramp_once(cfg, target, dur)
+                if reference:
+                    newmark._BASIS_MEMO.clear()
+                    basis_cache._RECENT.clear()
+                    os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = "off"
+                    grids = {"ramp_speed_quantum_rel": SPEED_QUANTUM_REL,
+                             "ramp_temperature_quantum_c": TEMPERATURE_QUANTUM_C}  # fmt: skip
+                    r["per_quantum"], ref = _ramp_once(cfg, target, dur, **grids)
+                    os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = tmp
+                    rms = np.sqrt(np.mean(ref**2, axis=0))
+                    diff = np.sqrt(np.mean((data - ref) ** 2, axis=0))
+                    live = rms > 0.0
+                    r["max_rms_diff_pct"] = float(np.max(100.0 * diff[live] / rms[live]))
+                out[name] = r
+        finally:
+            if old is None:
+                os.environ.pop("GEAR_ROTOR_SIM_BASIS_CACHE", None)
+            else:
+                os.environ["GEAR_ROTOR_SIM_BASIS_CACHE"] = old
+    return out
+
+
+def measure(quick: bool = True, ramps: bool = False) -> dict:
+    """Benchmark figures; ``quick`` keeps it under about a minute (no sweep, shorter runs); ``ramps``
+    adds part (i)."""
     repeats = 5
     cfg = paper_gearbox()
     system = GearRotorSystem.from_config(cfg, 25.0)
@@ -320,6 +401,9 @@ def measure(quick: bool = True) -> dict:
     for k in ("paper", "two_stage"):
         two[k].pop("last")
     res["two_stage_3000rpm"] = two
+    res["paper_reduction"] = reduction_table(
+        cfg, ["dte"], (3000.0, 7000.0, 12000.0, 20000.0), 0.1 if quick else 0.3, 3 if quick else repeats
+    )
     res["two_stage_reduction"] = reduction_table(
         load_config("two_stage_example"),
         ["mesh1_dte", "mesh2_dte"],
@@ -334,6 +418,8 @@ def measure(quick: bool = True) -> dict:
         one["extrapolated_400_s"] = one["wall_s"] * 10.0
         res["sweep_40_one_worker"] = one
         res["sweep_400_default_workers"] = sweep_time(400, 0)
+    if ramps:
+        res["ramps"] = ramp_rtf(cfg, reference=not quick)
     res["load_end"] = os.getloadavg()
     res["steps_per_s"] = min(res["steady"][f"dte_{r:.0f}rpm"]["steps_per_s"] for r in SPEEDS_RPM)
     res["rtf_3000rpm"] = res["simulator"]["dte_3000rpm"]["rtf"]
@@ -408,23 +494,58 @@ def report(res: dict) -> None:
             f"{d['modes']:3d} modes RTF {d['rtf']:6.2f} | {d['rtf_cpu']:6.2f}  speed-up {r['speedup']:.2f}  "
             f"RMS DTE reduced - full: {err} %  (dt {f['dt_s'] * 1e6:.3f} us)"
         )
+    print(
+        "\n(h) paper gearbox, full against reduced (default) model, DTE only, interleaved "
+        "(steps/s: integration steps per wall second)"
+    )
+    for key, r in res["paper_reduction"].items():
+        f, d = r["full"], r["reduced"]
+        err = ", ".join(f"{e:+.3f}" for e in r["rms_dte_error_pct"])
+        print(
+            f"  {key:9s} full {f['modes']:3d} modes RTF {f['rtf']:6.2f} | {f['rtf_cpu']:6.2f} "
+            f"{f['steps_per_s'] / 1e6:5.2f} M/s   reduced {d['modes']:3d} modes RTF {d['rtf']:6.2f} | "
+            f"{d['rtf_cpu']:6.2f} {d['steps_per_s'] / 1e6:5.2f} M/s  speed-up {r['speedup']:.2f}  "
+            f"RMS DTE reduced - full (last chunk): {err} %  (dt {f['dt_s'] * 1e6:.3f} us)"
+        )
     pts = ", ".join(
-        f"{p['temperature_c']:.0f} C {p['speed_rpm']:.0f} rpm {p['rms_dte_error_pct']:+.3f} % ({p['motion']})"
+        f"{p['temperature_c']:.0f} C {p['speed_rpm']:.0f} rpm default {p['rms_dte_error_pct']:+.3f} % / "
+        f"full {p['full_rule_error_pct']:+.3f} % ({p['motion']})"
         for p in res["accuracy_points"]
     )
     print(
         f"\n(g) default ({res['default_model']} model) against the full model, paper gearbox: speed-up "
         f"{res['speedup_vs_full']:.3f} (RTF {res['rtf_20000rpm_default_vs_full'][0]:.2f} / "
         f"{res['rtf_20000rpm_default_vs_full'][1]:.2f}, DTE only, 20000 rpm, interleaved); RMS DTE of the "
-        f"default dt rule against {res['accuracy_reference']}: max {res['max_rms_dte_error_pct']:.3f} % "
-        f"over the non-chaotic points\n  {pts}"
+        f"default model (dt rule, modal cut-off) against {res['accuracy_reference']}: max "
+        f"{res['max_rms_dte_error_pct']:.3f} % over the non-chaotic points (the full model with the same dt "
+        f"rule alongside)\n  {pts}"
     )
+    if "ramps" in res:
+        print(
+            "\n(i) ramps, 16 default channels, from steady 3000 rpm / 25 C (RTF wall | CPU; the steady RTF "
+            "just before, same simulator)"
+        )
+        for key, r in res["ramps"].items():
+            for label in ("cold", "warm", "per_quantum"):
+                if label in r:
+                    x = r[label]
+                    print(
+                        f"  {key:22s} {label:11s} RTF {x['rtf']:6.2f} | {x['rtf_cpu']:6.2f}  "
+                        f"(steady {x['steady_rtf']:6.2f}; load {x['load'][0]:.1f}->{x['load'][1]:.1f})"
+                    )
+            if "max_rms_diff_pct" in r:
+                print(
+                    f"  {key:22s} default against per-quantum: max RMS difference "
+                    f"{r['max_rms_diff_pct']:.3f} %"
+                )
     print(f"\nload average at end {tuple(round(x, 2) for x in res['load_end'])}")
     print(
         "\nGOALS: steps/s (simulate_steady, DTE only, min over 3000/20000 rpm) "
         f"{res['steps_per_s'] / 1e6:.2f} M "
-        f"(goal 2 M); RTF DTE-only 3000 rpm {res['rtf_3000rpm']:.1f} (goal 30), "
-        f"20000 rpm {res['rtf_20000rpm']:.1f} (goal 5)"
+        f"(goal 2 M); RTF DTE-only (default model) 3000 rpm {res['rtf_3000rpm']:.1f} (goal 100), "
+        f"20000 rpm {res['rtf_20000rpm']:.1f} (goal 15); default / full at 20000 rpm "
+        f"{res['speedup_vs_full']:.2f} (goal 3); two-stage / paper {res['two_stage_3000rpm']['ratio']:.2f} "
+        "(goal 0.40)"
     )
 
 
@@ -433,7 +554,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", default="")
     args = ap.parse_args()
-    res = measure(args.quick)
+    res = measure(args.quick, ramps=True)
     report(res)
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:

@@ -10,6 +10,7 @@ record of the same machine at another speed as the baseline.
 Usage::
 
     python benchmarks/calibration_independent.py [--quick] [--jobs N] [--out DIR] [--cases SUBSTR ...]
+        [--no-baseline | --only-baseline]
     python benchmarks/calibration_independent.py --from-results DIR [DIR ...]   # re-render saved results
 
 Prints a Markdown table (and writes ``table.md`` and ``results.json`` into ``--out``). Criteria per
@@ -24,6 +25,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -117,21 +119,33 @@ def calibrate(csv: Path, baseline: Path | None) -> dict[str, Any]:
     if baseline is not None:
         cmd += ["--baseline", str(baseline)]
     t = time.perf_counter()
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     p = subprocess.run(cmd, capture_output=True, text=True)
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     wall = time.perf_counter() - t
+    # CPU time of this calibration alone (the worker runs one subprocess at a time): on a shared
+    # machine the wall time mostly measures the other jobs
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if p.returncode != 0:
-        return {"failed": True, "stderr": p.stderr[-2000:], "wall_s": wall}
+        return {"failed": True, "stderr": p.stderr[-2000:], "wall_s": wall, "cpu_s": cpu}
     try:
         d = json.loads(p.stdout)
     except json.JSONDecodeError:
-        return {"failed": True, "stderr": "no JSON on stdout: " + p.stdout[-500:], "wall_s": wall}
+        err = "no JSON on stdout: " + p.stdout[-500:]
+        return {"failed": True, "stderr": err, "wall_s": wall, "cpu_s": cpu}
     d["wall_s"] = wall
+    d["cpu_s"] = cpu
     return d
 
 
 def judge(case: Case, res: dict[str, Any]) -> dict[str, Any]:
     """Verdicts of one record against the issue-11 criteria."""
-    row: dict[str, Any] = {"record": case.tag, "truth": case.fault or "healthy", "wall_s": res.get("wall_s")}
+    row: dict[str, Any] = {
+        "record": case.tag,
+        "truth": case.fault or "healthy",
+        "wall_s": res.get("wall_s"),
+        "cpu_s": res.get("cpu_s"),
+    }
     if res.get("failed"):
         row.update(first="calibrate failed", verdict="FAIL (calibrate failed)", error=res.get("stderr"))
         return row
@@ -166,6 +180,17 @@ def judge(case: Case, res: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
+def _reference(args: tuple[Case, str, float]) -> str:
+    """Fit the baseline of a healthy reference record once; the saved JSON goes to ``--baseline``."""
+    from gear_rotor_sim.calibration.baseline import fit_reference_baseline
+    from gear_rotor_sim.calibration.measurement import load_measurement
+
+    case, out, duration = args
+    csv = make(case, Path(out), duration)
+    ref = fit_reference_baseline(load_measurement(csv), source=str(csv))
+    return str(ref.save(Path(out) / f"{case.tag}.reference.json"))
+
+
 def _job(args: tuple[Case, str, float, str | None]) -> dict[str, Any]:
     case, out, duration, baseline = args
     csv = Path(out) / f"{case.tag}.csv"
@@ -189,8 +214,8 @@ def _fmt(x: Any, spec: str = ".3g") -> str:
 def table(rows: list[dict[str, Any]]) -> str:
     head = (
         "| record | truth | first effect | main parameter: fitted / truth (error) | error_before | "
-        "error_after | ratio | named first | within 25 % | halved | verdict | wall (s) |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "error_after | ratio | named first | within 25 % | halved | verdict | wall (s) | CPU (s) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     )
     lines = []
     for r in rows:
@@ -209,7 +234,7 @@ def table(rows: list[dict[str, Any]]) -> str:
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {first} | {par} | {_fmt(r.get('error_before'))} | "
             f"{_fmt(r.get('error_after'))} | {_fmt(r.get('ratio'), '.2f')} | {mk[0]} | {mk[1]} | {mk[2]} | "
-            f"{r['verdict']} | {_fmt(r.get('wall_s'), '.0f')} |"
+            f"{r['verdict']} | {_fmt(r.get('wall_s'), '.0f')} | {_fmt(r.get('cpu_s'), '.0f')} |"
         )
     return head + "\n".join(lines) + "\n"
 
@@ -231,10 +256,13 @@ def collect(todo: list[Case], dirs: list[Path], baseline: bool) -> list[dict[str
 
 def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str) -> str:
     plain = [r for r in rows if not r.get("baseline")]
-    text = "#### Without a baseline record\n\n" + table(plain)
+    text = "#### Without a baseline record\n\n" + table(plain) if plain else ""
     if baseline_ok:
         based = [r for r in rows if r.get("baseline")]
-        text += f"\n#### With `--baseline` (healthy record at {BASELINE[0]:.0f} rpm)\n\n" + table(based)
+        text += (
+            f"\n#### With `--baseline` (healthy record at {BASELINE[0]:.0f} rpm; at "
+            f"{BASELINE_ALT[0]:.0f} rpm for the {BASELINE[0]:.0f} rpm healthy record)\n\n" + table(based)
+        )
     else:
         text += "\n`--baseline`: not available in this `gear-rotor-sim calibrate`.\n"
     done = [r for r in rows if r["verdict"] != "not run"]
@@ -246,6 +274,9 @@ def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str) -> str:
     if walls:
         med, worst = walls[len(walls) // 2], walls[-1]
         text += f". Calibration wall time per record: median {med:.0f} s, max {worst:.0f} s"
+    cpus = sorted(r["cpu_s"] for r in done if r.get("cpu_s") is not None)
+    if cpus:
+        text += f"; CPU time per record: median {cpus[len(cpus) // 2]:.0f} s, max {cpus[-1]:.0f} s"
     return text + f"; {note}.\n"
 
 
@@ -257,6 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
     ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
     ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
+    ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
     ap.add_argument(
         "--from-results",
         nargs="+",
@@ -282,12 +314,21 @@ def main(argv: list[str] | None = None) -> int:
         load0 = os.getloadavg()[0]
         for c in todo:  # records first (fast, deterministic), calibrations in the pool
             make(c, out, args.duration_s)
-        jobs: list[tuple[Case, str, float, str | None]] = [(c, str(out), args.duration_s, None) for c in todo]
+        jobs: list[tuple[Case, str, float, str | None]] = (
+            [] if args.only_baseline else [(c, str(out), args.duration_s, None) for c in todo]
+        )
         if baseline_ok:
             bases = {}
-            for speed, temp in (BASELINE, BASELINE_ALT):
-                bc = Case(f"baseline_{speed:.0f}rpm_{temp:.0f}C", speed, temp, None, 999)
-                bases[(speed, temp)] = make(bc, out, args.duration_s)
+            refs = [
+                Case(f"baseline_{sp:.0f}rpm_{tc:.0f}C", sp, tc, None, 999)
+                for sp, tc in (BASELINE, BASELINE_ALT)
+            ]
+            # each reference baseline is fitted once (calibration/baseline.py, as `--baseline HEALTHY` does)
+            # and passed to every --baseline job as the saved JSON
+            with ProcessPoolExecutor(max_workers=max(1, min(args.jobs, len(refs)))) as pool:
+                saved = list(pool.map(_reference, [(c, str(out), args.duration_s) for c in refs]))
+            for c, path in zip(refs, saved, strict=True):
+                bases[(c.speed_rpm, c.temperature_c)] = Path(path)
             for c in todo:
                 b = (
                     bases[BASELINE_ALT]

@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
 from gear_rotor_sim.solver.decimate import StreamDecimator
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
@@ -51,7 +52,14 @@ from gear_rotor_sim.solver.newmark import (
     quantize_speed_rpm,
     static_equilibrium,
 )
-from gear_rotor_sim.solver.rebase import ThermalLoad, ramp_nodes, ramp_system
+from gear_rotor_sim.solver.rebase import (
+    RampSpan,
+    ThermalLoad,
+    interpolated_system,
+    ramp_linear_model,
+    ramp_nodes,
+    ramp_system,
+)
 from gear_rotor_sim.system_data import AssembledSystem
 
 __all__ = ["Effect", "SimulationDiverged", "Simulator", "StepContext"]
@@ -64,9 +72,20 @@ TEMPERATURE_QUANTUM_C = 0.5
 MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
 #: While a speed / temperature ramp runs, the gyroscopic basis and the system are re-built on these
 #: coarser grids (docs/solver.md, "Ramps"); at a constant set-point the fine quanta above apply.
-RAMP_SPEED_QUANTUM_REL = 0.08
+RAMP_SPEED_QUANTUM_REL = 0.25
 RAMP_TEMPERATURE_QUANTUM_C = 5.0
+#: While the temperature ramps, exact systems are assembled on this grid (and at the ramp's ends); the
+#: basis-grid nodes between are interpolated (solver/rebase.py).
+RAMP_ASSEMBLY_QUANTUM_C = 25.0
 MODAL_CUTOFF_MESH_HARMONICS = 4.0
+
+
+def auto_modal_cutoff_hz(f_mesh_hz: float, output_rate_hz: float) -> float:
+    """The ``modal_cutoff_hz="auto"`` cut-off: the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR`` output
+    rates and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the (highest) mesh frequency, Hz."""
+    return max(MODAL_CUTOFF_OUTPUT_FACTOR * output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh_hz)
+
+
 #: The dt rule uses at least this speed (dt at standstill stays bounded).
 DT_RULE_SPEED_FLOOR_RPM = 60.0
 #: Highest accepted integration rate; an output rate above it is refused.
@@ -164,23 +183,31 @@ class Simulator:
     speed_ramp_rpm_per_s, temperature_ramp_c_per_s : float
         Ramp rates toward new targets (> 0; ``inf`` jumps).
     ramp_speed_quantum_rel, ramp_temperature_quantum_c : float
-        Grids of the gyroscopic basis (relative speed step, default 8 %) and of the system rebuild
-        (default 5 C) while a speed or temperature ramp runs; at a constant set-point the fine
-        quanta (1 %, 0.5 C) apply. Chunks still end at every fine quantum (the dt rule decides
-        there). ``SPEED_QUANTUM_REL`` / ``TEMPERATURE_QUANTUM_C`` give the per-quantum rebuild.
+        Grids of the eigenbasis while a speed ramp (relative speed step, default 25 %) or a
+        temperature ramp (default 5 C; exact assembly per ``RAMP_ASSEMBLY_QUANTUM_C``, the static
+        load, mesh tables and backlash still per 0.5 C, solver/rebase.py) runs; at a constant
+        set-point the fine quanta (1 %, 0.5 C) apply. Chunks still end at every fine quantum (the dt
+        rule decides there). ``SPEED_QUANTUM_REL`` / ``TEMPERATURE_QUANTUM_C`` give the per-quantum
+        rebuild (an exact assembly and eigendecomposition per quantum). Eigenbases are cached on
+        disk across runs (solver/basis_cache.py).
     modal_cutoff_hz : "auto", float or None
         Modal reduction with static correction: the modes above the cut-off follow the excitation
         quasi-statically (residual flexibility) and only the retained ones are integrated by the exact
-        map (docs/solver.md, "Modal reduction"). "auto": on multi-mesh rigs, the larger of 2 output
-        rates and 4 harmonics of the highest mesh frequency; single-mesh rigs stay full. None: full
-        model. A number: that cut-off (Hz) on any rig (a single-mesh rig then runs the multi-mesh
-        kernel, events not located).
+        map (docs/solver.md, "Modal reduction"). "auto" (default): the larger of 2 output rates and 4
+        harmonics of the highest mesh frequency (40 kHz at 20 kHz output up to 10 kHz mesh
+        frequency). None: full model. A number: that cut-off (Hz).
     effects : sequence of Effect
     locate_events : bool, optional
         Split integration steps at the mesh-table jumps and contact changes inside them (second-order
         accurate at those events, docs/solver.md); False takes them at the step instants (faster).
         Default: the dt rule (``rule_locate_events``): on while the teeth separate, and from
         ``LOCATE_EVENTS_FROM_STEPS`` steps per mesh period.
+    exact_modal_map : bool, optional
+        The exact modal propagator instead of Newmark's map (no period error at any mode;
+        docs/solver.md, "Exact modal map"). Default (None): the dt rule's choice, the exact map where
+        the rule's resonance part (a lightly damped mode near a low mesh harmonic) would raise the
+        integration rate, Newmark's map elsewhere. True / False: always / never (False gives the
+        resonance part's higher rate instead).
     system_builder : callable, optional
         ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
     """
@@ -202,6 +229,7 @@ class Simulator:
         locate_events: bool | None = None,
         contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
         modal_cutoff_hz: float | str | None = "auto",
+        exact_modal_map: bool | None = None,
         ramp_speed_quantum_rel: float = RAMP_SPEED_QUANTUM_REL,
         ramp_temperature_quantum_c: float = RAMP_TEMPERATURE_QUANTUM_C,
     ) -> None:
@@ -215,6 +243,12 @@ class Simulator:
                 "frequency > 0 Hz"
             )
         self.modal_cutoff_hz = modal_cutoff_hz
+        if exact_modal_map is not None and not isinstance(exact_modal_map, bool | np.bool_):
+            raise ValueError(
+                f"exact_modal_map: {exact_modal_map!r} must be True, False or None (the dt rule)"
+            )
+        self._exact_opt = exact_modal_map
+        self._exact = bool(exact_modal_map)  # the map in use (the dt rule's choice with None)
         for name, q, lo, hi in (
             ("ramp_speed_quantum_rel", ramp_speed_quantum_rel, SPEED_QUANTUM_REL, 1.0),
             ("ramp_temperature_quantum_c", ramp_temperature_quantum_c, TEMPERATURE_QUANTUM_C, 25.0),
@@ -256,15 +290,16 @@ class Simulator:
         self.locate_events = False  # set from the dt rule once k is known (below)
         self._systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         # ramp systems at the fine quanta between the grid nodes (solver/rebase.py), LRU
-        self._ramp_systems: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
+        self._spans: OrderedDict[float, RampSpan] = OrderedDict()  # per basis-grid node
         self._thermal: ThermalLoad | None = None
+        self._nodes: OrderedDict[float, tuple[AssembledSystem, NewmarkStepper]] = OrderedDict()
         tq = self._tq(temperature_c)
         system = self._build(tq)
         names = list(channels) if channels is not None else self.default_channels(system)
         self.specs = parse_channels(system, names)
         self._systems[tq] = (
             system,
-            NewmarkStepper(system, self.specs, self.effects, force_dense, locate_events=self.locate_events),
+            self._stepper_for(system),
         )
         self.channels = tuple(names)
         self.units = tuple(s.unit for s in self.specs)
@@ -318,39 +353,88 @@ class Simulator:
     def _tq(temperature_c: float) -> float:
         return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
-    def _system_at(self, tq: float, ramping: bool) -> tuple[AssembledSystem, NewmarkStepper]:
-        """System and stepper at the fine quantum ``tq``: the exact assembly at a constant set-point
-        and at the ramp grid's nodes, a ramp system (solver/rebase.py) between them while the
-        temperature ramps."""
-        q = self.ramp_temperature_quantum_c
-        if not ramping or q <= TEMPERATURE_QUANTUM_C:
-            return self._system(tq)
-        lo, hi = sorted((self._tq(self._temp.v0), self._tq(self._temp.target)))  # nodes within the ramp
-        a, b = (self._tq(v) for v in ramp_nodes(tq, q, lo, hi))
+    def _thermal_load_model(self) -> ThermalLoad | None:
+        """The thermal node load of the default assembly (None for a custom builder)."""
+        if self._builder is not _default_builder:
+            return None
+        if self._thermal is None:
+            self._thermal = ThermalLoad(self.cfg)
+        return self._thermal
+
+    def _thermal_load(self, tq: float) -> np.ndarray | None:
+        """Exact thermal node load for the default assembly (None: interpolated, custom builders)."""
+        model = self._thermal_load_model()
+        return None if model is None else model(tq)
+
+    def _ramp_range(self) -> tuple[float, float]:
+        return tuple(sorted((self._tq(self._temp.v0), self._tq(self._temp.target))))  # type: ignore[return-value]
+
+    def _node(self, tq: float) -> tuple[AssembledSystem, NewmarkStepper]:
+        """Node of the ramp's basis grid: exact on the assembly grid and at the ramp's ends, else
+        interpolated between them (solver/rebase.py); its own eigenbases."""
+        lo, hi = self._ramp_range()
+        a, b = (self._tq(v) for v in ramp_nodes(tq, RAMP_ASSEMBLY_QUANTUM_C, lo, hi))
         if tq in (a, b):
             return self._system(tq)
-        hit = self._ramp_systems.get(tq)
-        if hit is not None:
-            self._ramp_systems.move_to_end(tq)
-            return hit
-        sys_a, step_a = self._system(a)
-        sys_b, step_b = self._system(b)
-        node, node_stepper = (sys_a, step_a) if tq - a <= b - tq else (sys_b, step_b)
-        thermal = None
-        if self._builder is _default_builder:  # the exact thermal node load (else interpolated)
-            if self._thermal is None:
-                self._thermal = ThermalLoad(self.cfg)
-            thermal = self._thermal(tq)
-        system = ramp_system(node, sys_a, sys_b, tq, thermal)
-        stepper = NewmarkStepper(
-            system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events
-        )
-        stepper.share_bases(node_stepper)
-        hit = (system, stepper)
-        self._ramp_systems[tq] = hit
-        if len(self._ramp_systems) > 4:
-            self._ramp_systems.popitem(last=False)
+        hit = self._nodes.get(tq)
+        if hit is None:
+            system = interpolated_system(self._system(a)[0], self._system(b)[0], tq, self._thermal_load(tq))
+            hit = (system, self._stepper_for(system))
+            self._nodes[tq] = hit
+            if len(self._nodes) > 4:
+                self._nodes.popitem(last=False)
+        else:
+            self._nodes.move_to_end(tq)
         return hit
+
+    def _system_at(self, tq: float, ramping: bool, speed_rpm: float) -> tuple[NewmarkStepper, bool]:
+        """Stepper at the fine quantum ``tq`` and whether its modal state carries on (else the state is
+        loaded into it): the exact assembly at a constant set-point; while the temperature ramps, ramp
+        systems on the nearest basis-grid node's linear part and eigenbases (solver/rebase.py): with
+        the default assembly one :class:`RampSpan` per node whose kernel arrays are corrected in place
+        per quantum, else one new stepper per quantum."""
+        q = self.ramp_temperature_quantum_c
+        if not ramping or q <= TEMPERATURE_QUANTUM_C:
+            return self._system(tq)[1], False
+        lo, hi = self._ramp_range()
+        a, b = (self._tq(v) for v in ramp_nodes(tq, q, lo, hi))
+        near_t = a if tq - a <= b - tq else b
+        near_sys, near = self._node(near_t)
+        sys_a, sys_b = self._node(a)[0], self._node(b)[0]
+        system = ramp_system(near_sys, sys_a, sys_b, tq, self._thermal_load(tq))
+        thermal = self._thermal_load_model()
+        if thermal is None or thermal.units is None:  # one stepper per quantum
+            if tq == near_t:
+                return near, False
+            stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self.effects))
+            stepper.basis_source = near.basis  # the same state matrix: the node's bases (and its cache)
+            return stepper, False
+        span = self._spans.get(near_t)
+        if span is None:
+            below, above = (
+                ramp_nodes(near_t - 0.5 * q, q, lo, hi)[0],
+                ramp_nodes(near_t + 0.5 * q, q, lo, hi)[1],
+            )
+            lower = self._node(self._tq(below))[0] if self._tq(below) < near_t else None
+            upper = self._node(self._tq(above))[0] if self._tq(above) > near_t else None
+            span = RampSpan((near_sys, near), lower, upper, thermal, self._stepper_for, self.effects)
+            self._spans[near_t] = span
+            if len(self._spans) > 4:
+                self._spans.popitem(last=False)
+        omega = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
+        stepper, carry = span.retarget(
+            system, omega, self.dt, self._cutoff_hz(near_sys, speed_rpm), self._state, self._exact
+        )
+        return stepper, carry and stepper is self._stepper
+
+    def _stepper_for(self, system: AssembledSystem, lin: Any = None) -> NewmarkStepper:
+        """A stepper whose eigenbases come from the disk cache (solver/basis_cache.py)."""
+        stepper = NewmarkStepper(
+            system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events, lin=lin
+        )
+        dense = self._force_dense
+        stepper.basis_source = lambda omega: cached_eigen_basis(stepper.lin, omega, dense)
+        return stepper
 
     def _speed_quantum(self, speed_rpm: float) -> float:
         """Relative speed quantum of the basis in use: coarse while the speed ramps."""
@@ -374,9 +458,7 @@ class Simulator:
             system = self._build(tq)
             hit = (
                 system,
-                NewmarkStepper(
-                    system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events
-                ),
+                self._stepper_for(system),
             )
             self._systems[tq] = hit
             if len(self._systems) > 8:
@@ -398,11 +480,17 @@ class Simulator:
         if self.contact_loss_rate_hz is not None:  # the dt rule's contact-loss and resonance parts
             if self._loss_mode:
                 rate = max(rate, self.contact_loss_rate_hz)
-            stepper = self._stepper
-            light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
-            for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
-                for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
-                    rate = max(rate, resonance_rate_hz(fm, light))
+            res = 0.0
+            if self._exact_opt is not True:
+                stepper = self._stepper
+                light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
+                for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
+                    for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
+                        res = max(res, resonance_rate_hz(fm, light))
+            if self._exact_opt is None:  # the exact map instead of resolving the light mode
+                self._exact = res > rate
+            if not self._exact:
+                rate = max(rate, res)
             rate = min(rate, MAX_STEPS_PER_MESH * f)
         return max(1, int(np.ceil(rate / self.output_rate_hz * (1 - 1e-12))))
 
@@ -420,24 +508,23 @@ class Simulator:
     def _cutoff_hz(self, system: AssembledSystem, speed_rpm: float) -> float | None:
         """Modal cut-off of the reduced model at a speed (None: full model).
 
-        ``"auto"``: on multi-mesh rigs (the multi-mesh kernel) the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR``
-        output rates and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency at the
-        quantised speed; single-mesh rigs stay on the full model (the located sub-steps of the
-        single-mesh kernel take no reduction). A number: that cut-off on any rig.
+        ``"auto"``: the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR`` output rates and
+        ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency at the quantised speed
+        (docs/solver.md, "Modal reduction": the RMS DTE within 0.005 % of the full model on the paper
+        gearbox). A number: that cut-off.
         """
         cut = self.modal_cutoff_hz
         if cut is None:
             return None
         if cut != "auto":
             return float(cut)
-        if len(system.meshes) < 2:
-            return None
         f_mesh = mesh_frequency_hz(system, max(self._sq(speed_rpm), DT_RULE_SPEED_FLOOR_RPM))
-        return max(MODAL_CUTOFF_OUTPUT_FACTOR * self.output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh)
+        return auto_modal_cutoff_hz(f_mesh, self.output_rate_hz)
 
     def _activate(self, stepper: NewmarkStepper, st: SolverState, speed_rpm: float) -> None:
         self._stepper = stepper
         stepper.modal_cutoff_hz = self._cutoff_hz(stepper.system, speed_rpm)
+        stepper.exact_map = self._exact
         self._omega_q = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
         stepper.set_operating_point(self._omega_q, self.dt, st)
 
@@ -485,7 +572,8 @@ class Simulator:
         if temperature_c is not None:
             _check_temperature(temperature_c)
             self._system(self._tq(temperature_c))  # material policy check now, not mid-stream
-            self._ramp_systems.clear()  # their grid nodes belong to the previous ramp
+            self._spans.clear()  # their grid nodes belong to the previous ramp
+            self._nodes.clear()
             self._temp = _Ramp(t, float(self._temp.value(t)), float(temperature_c), self.temperature_ramp)
 
     def set_effects(self, effects: Sequence[Effect]) -> None:
@@ -502,7 +590,9 @@ class Simulator:
         self.effects = effects
         self.cfg = cfg
         self._systems.clear()
-        self._ramp_systems.clear()
+        self._spans.clear()
+        self._nodes.clear()
+        self._thermal = None  # modify_config may change the materials
         _, stepper = self._system(self._tq_cur)
         self._sys_key = (self._tq_cur, False)
         t = self._raw_time
@@ -561,6 +651,7 @@ class Simulator:
             "dt_s": self.dt,
             "decimation": float(self._k),
             "located": float(self.locate_events),
+            "exact_modal_map": float(self._exact),
             "contact_loss_rule": float(self._loss_mode),
             "mesh_solve_failures": float(self._stepper.n_mesh_fail),
         }
@@ -626,13 +717,19 @@ class Simulator:
         tq = self._tq(temp_now)
         key = (tq, temp_now != self._temp.target)
         if key != self._sys_key:
-            _, stepper = self._system_at(*key)
+            stepper, carry = self._system_at(*key, s_now)
             self._tq_cur = tq
             self._sys_key = key
-            self._activate(stepper, self._state, s_now)
+            if not carry:
+                self._activate(stepper, self._state, s_now)
         else:
             oq = self._sq(s_now) * 2.0 * np.pi / 60.0
-            if oq != self._omega_q or self._stepper.map is None or self._stepper.map.dt != self.dt:
+            if (
+                oq != self._omega_q
+                or self._stepper.map is None
+                or self._stepper.map.dt != self.dt
+                or self._stepper.exact_map != self._exact
+            ):
                 self._activate(self._stepper, self._state, s_now)
         dt = self.dt
         # new steps are raw+1 .. raw+n (raw is the carried state), plus one neighbour on each side

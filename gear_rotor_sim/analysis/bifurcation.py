@@ -46,6 +46,8 @@ MESH_OVERRIDES = (
     "transmission_error_amplitude_m",
 )
 RAYLEIGH_OVERRIDES = ("mass_per_s", "stiffness_s")
+#: Overrides of the configuration's load: the output torque T2 (Table 3: 200 N m), N m.
+LOAD_OVERRIDES = ("load_torque_nm",)
 #: Overrides applied to the assembled system (not expressible in the configuration).
 SYSTEM_OVERRIDES = ("mesh_stiffness_scale",)
 
@@ -65,8 +67,9 @@ class Case:
     overrides : tuple of (str, float)
         Parameter changes for sensitivity studies: mesh fields (``friction_coefficient``,
         ``damping_ratio``, ``half_backlash_m``, ``transmission_error_amplitude_m``), shaft
-        Rayleigh damping (``mass_per_s``, ``stiffness_s``) and ``mesh_stiffness_scale`` (multiplies
-        the potential-energy mesh stiffness at every phase, see :func:`scale_mesh_stiffness`).
+        Rayleigh damping (``mass_per_s``, ``stiffness_s``), the output torque ``load_torque_nm`` and
+        ``mesh_stiffness_scale`` (multiplies the potential-energy mesh stiffness at every phase, see
+        :func:`scale_mesh_stiffness`).
     config : str
         Named paper configuration (:data:`gear_rotor_sim.examples.PAPER_CONFIGS`): ``"paper_sun2021"``
         (default) or ``"paper_sun2021_as_published"``.
@@ -110,7 +113,8 @@ def build_config(case: Case) -> Any:
     )
     mesh_changes = {k: v for k, v in case.overrides if k in MESH_OVERRIDES}
     ray_changes = {k: v for k, v in case.overrides if k in RAYLEIGH_OVERRIDES}
-    known = MESH_OVERRIDES + RAYLEIGH_OVERRIDES + SYSTEM_OVERRIDES
+    load_changes = {k: v for k, v in case.overrides if k in LOAD_OVERRIDES}
+    known = MESH_OVERRIDES + RAYLEIGH_OVERRIDES + SYSTEM_OVERRIDES + LOAD_OVERRIDES
     unknown = {k for k, _ in case.overrides} - set(known)
     if unknown:
         raise ValueError(f"overrides: {sorted(unknown)} not in {known}")
@@ -118,6 +122,8 @@ def build_config(case: Case) -> Any:
         cfg = cfg.replace(meshes=tuple(dataclasses.replace(m, **mesh_changes) for m in cfg.meshes))
     if ray_changes:
         cfg = cfg.replace(rayleigh_damping=dataclasses.replace(cfg.rayleigh_damping, **ray_changes))
+    if load_changes and cfg.load is not None:
+        cfg = cfg.replace(load=dataclasses.replace(cfg.load, torque_nm=float(load_changes["load_torque_nm"])))
     return cfg
 
 

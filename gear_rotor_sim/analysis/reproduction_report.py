@@ -281,6 +281,119 @@ def _mean_abs_error(rows: list[dict[str, Any]]) -> float:
     return float(np.mean([abs(x["rel_error"]) for x in rows])) if rows else float("nan")
 
 
+#: What the paper's text says about the lower edge of the 25 C main chaotic band (Sec 4.2, 4.3).
+PAPER_25C_LOWER_EDGE_TEXT = (
+    "The paper's text is not consistent about this edge: Sec 4.2 lists the 25 C chaos at "
+    '"13500-14700 rpm" and says that "at 13500rpm, the system motion changes from multi-period to '
+    'chaos as the temperature increases" (25 C multi-period there), but also that "with the increase '
+    'of temperature, the system changes from chaotic to periodic-2 motion at 12850rpm" (25 C chaotic '
+    'at 12850 rpm); Sec 4.3 gives "13100-14600rpm" for Fig 6a.'
+)
+
+
+def _within(errors: list[float], tol: float = 700.0) -> bool:
+    return all(np.isfinite(e) and abs(e) <= tol for e in errors)
+
+
+def _edge_verdict(edge: list[dict[str, Any]]) -> str:
+    """Whether a detection threshold (on K, or on the spread of the section as a bifurcation diagram is
+    read by eye) could move the band's lower edge: only if its first chaotic speed is weak chaos."""
+    first = next((e for e in edge if e["label"] == "chaotic"), None)
+    if first is None:
+        return ""
+    if first["k"] >= 0.9:
+        return (
+            f"The band starts with a jump into fully developed chaos (K {first['k']:.2f} at "
+            f"{first['speed_rpm']:.0f} rpm): no detection threshold between K 0.5 and 0.9 moves this edge."
+        )
+    return (
+        f"The first chaotic speed is weak chaos (K {first['k']:.2f} at {first['speed_rpm']:.0f} rpm): a "
+        "stricter detection threshold would move this edge up."
+    )
+
+
+def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
+    """Table of the readings of the paper (gear_rotor_sim/analysis/readings.py) against Fig 6."""
+    panels = list(rd["paper_rpm"])
+    add("### Readings of the paper against the Fig 6 bands")
+    add("")
+    add(
+        "Each row is one reading of the paper's text applied on top of this configuration "
+        "(`gear_rotor_sim/analysis/readings.py`; nothing fitted, each a discrete alternative of the "
+        f"text). Main band of each panel re-swept on a {rd['step_rpm']:g} rpm grid in one continuation "
+        f"segment ({', '.join(f'{k}: {a:.0f}-{b:.0f}' for k, (a, b) in rd['fine_windows_rpm'].items())} "
+        f"rpm), chaotic windows closer than {rd['gap_rpm']:g} rpm joined, the widest kept; edge errors "
+        f"against the paper in brackets; {rd['wall_time_s']:.0f} s for the table."
+    )
+    add("")
+    head = " | ".join(
+        f"{PANEL_TITLES.get(k, k)} (paper {a:.0f}-{b:.0f})" for k, (a, b) in rd["paper_rpm"].items()
+    )
+    add(f"| reading | from the paper's text | {head} |")
+    add("|---|---|" + "---|" * len(panels))
+    for x in rd["readings"]:
+        cells = []
+        for k in panels:
+            lo, hi = x["bands_rpm"][k]
+            el, eh = x["edge_errors_rpm"][k]
+            cells.append("none" if not np.isfinite(lo) else f"{lo:.0f}-{hi:.0f} ({el:+.0f} / {eh:+.0f})")
+        add(_row(x["title"], x["text"], *cells))
+    add("")
+    inside = [x["title"] for x in rd["readings"] if _within(x["edge_errors_rpm"].get("25C", [np.nan]))]
+    all_in = [x["title"] for x in rd["readings"] if all(_within(x["edge_errors_rpm"][k]) for k in panels)]
+    add(
+        "Fig 6a main band within +-700 rpm of the paper's at both edges: "
+        + (", ".join(inside) if inside else "no reading")
+        + ". All three panels within +-700 rpm: "
+        + (", ".join(all_in) if all_in else "no reading")
+        + "."
+    )
+    add("")
+    for x in rd["readings"]:
+        ok = [PANEL_TITLES.get(k, k)[:3] for k in panels if _within(x["edge_errors_rpm"][k])]
+        late = [f"{lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"] if lab == "chaotic" and hi >= 11000]
+        add(
+            f"- {x['title']}: panels within +-700 rpm: {', '.join(ok) if ok else 'none'}; 25 C chaos "
+            f"above 11000 rpm on the coarse grid: {', '.join(late) if late else 'none'}."
+        )
+    add("")
+    add(
+        "A reading is adopted into `paper_sun2021_as_published` only if it brings all three panels "
+        "within +-700 rpm (it is meant to reproduce Fig 6, not one edge of one panel); "
+        + (
+            "none does, so the configuration keeps the Eq 32 reading alone: its Fig 6a band stays the "
+            "one above and its Figs 7 and 8 are those below (the readings' own Figs 7 and 8 were not "
+            "computed)."
+            if not all_in
+            else f"{all_in[0]} does."
+        )
+    )
+    add("")
+    add("25 C motion sequence per reading (coarse grid, runs shorter than 3 grid points absorbed):")
+    add("")
+    for x in rd["readings"]:
+        seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"])
+        add(f"- {x['title']}: {seq}.")
+    add("")
+    edge = rd.get("lower_edge_25c") or []
+    if edge:
+        add(
+            "Lower edge of the as-published 25 C band on the fine grid (0-1 test statistic K, chaos at "
+            "K >= 0.5; spread = peak-to-peak of the Poincare section over the DTE range): "
+            + "; ".join(
+                f"{e['speed_rpm']:.0f} rpm {e['label']}"
+                + (f" K {e['k']:.2f}" if np.isfinite(e["k"]) else "")
+                + f" spread {e['section_spread']:.2f}"
+                for e in edge
+            )
+            + ". "
+            + _edge_verdict(edge)
+        )
+        add("")
+    add(PAPER_25C_LOWER_EDGE_TEXT)
+    add("")
+
+
 def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out: Path) -> None:
     """The as-published configuration against the default model and the paper (when its results exist)."""
     p = published_results(out, r["level"])
@@ -375,6 +488,8 @@ def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out:
                 + "."
             )
         add("")
+    if p.get("readings"):
+        _write_readings(add, p["readings"])
     add("Motion sequence with increasing speed (as published; runs shorter than 3 grid points absorbed):")
     add("")
     for key in p["fig6"]:

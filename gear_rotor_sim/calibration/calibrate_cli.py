@@ -47,9 +47,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--baseline",
         metavar="HEALTHY",
-        help="healthy record of the same machine (any operating point): its baseline (mesh and bearing "
-        "stiffness/damping scales, carrier model-form tolerance) is calibrated first and MEASUREMENT "
-        "is diagnosed against the updated model",
+        help="healthy record of the same machine (any operating point), or a reference saved by "
+        "--save-baseline (.json): its baseline (mesh and bearing stiffness/damping scales, carrier "
+        "model-form tolerance) is calibrated first and MEASUREMENT is diagnosed against the updated model",
+    )
+    parser.add_argument(
+        "--save-baseline",
+        metavar="FILE",
+        help="write the reference baseline fitted from --baseline HEALTHY to FILE (JSON), for reuse",
     )
     parser.add_argument(
         "--allow-gaps",
@@ -88,6 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gear_rotor_sim.calibration import cwru
+    from gear_rotor_sim.calibration.baseline import fit_reference_baseline, load_reference
     from gear_rotor_sim.calibration.fit import Calibrator, FitSettings
     from gear_rotor_sim.calibration.report import result_json, write_report
     from gear_rotor_sim.calibration.residual import ResidualSettings
@@ -133,25 +139,31 @@ def run(args: argparse.Namespace) -> int:
             if args.tolerance is not None:
                 settings.tolerance = args.tolerance
             ref: dict = {}
-            if args.baseline:
+            if args.save_baseline and (not args.baseline or Path(args.baseline).suffix.lower() == ".json"):
+                raise ValueError("--save-baseline FILE needs --baseline HEALTHY, a record to fit it on")
+            if args.baseline and Path(args.baseline).suffix.lower() == ".json":
+                rb = load_reference(args.baseline)
+                log(f"baseline: {args.baseline} (fitted on {rb.source})")
+                ref = rb.calibrator_kwargs()
+            elif args.baseline:
                 href = load_measurement(Path(args.baseline), None, nan_policy)
                 if args.duration is not None or args.start:
                     href = href.segment(args.start, args.duration)
                 if args.gearbox:
                     href.gearbox, href.bearing_type = args.gearbox, None
                 log(f"baseline: calibrating on {args.baseline}")
-                rb = Calibrator(
+                rb = fit_reference_baseline(
                     href,
-                    settings=ResidualSettings(**vars(settings)),
-                    fit_settings=FitSettings(max_effects=0),
+                    source=str(args.baseline),
+                    settings=settings,
                     steps_per_mesh=args.steps_per_mesh,
                     log=log,
-                ).run()
-                ref = {
-                    "baseline": rb.baseline_effects,
-                    "baseline_source": str(args.baseline),
-                    "carrier_tolerance": rb.model_form.get("carrier_tolerance"),
-                }
+                )
+                for note in rb.notes:
+                    log(f"baseline: {note}")
+                if args.save_baseline:
+                    log(f"baseline: saved to {rb.save(args.save_baseline)}")
+                ref = rb.calibrator_kwargs()
             cal = Calibrator(m, settings=settings, steps_per_mesh=args.steps_per_mesh, log=log, **ref)
         if args.tolerance is not None:
             cal.settings.tolerance = args.tolerance

@@ -136,6 +136,10 @@ class ModelRunner:
         Model channel names; ``bearing<k>_housing_a<d>`` is the housing sensor of bearing k.
     sensors : dict
         ``channel -> HousingSensor`` for housing channels.
+    n_model : int
+        Samples simulated and returned per run (0: ``n_samples``). The calibration simulates whole
+        hunting periods of the mesh instead of the record length (``model_window.py``): every
+        feature is an average over the record and the response is periodic in that period.
     """
 
     cfg: object
@@ -148,6 +152,7 @@ class ModelRunner:
     steps_per_mesh: int = 32
     sensors: dict[str, HousingSensor] = field(default_factory=dict)
     n_runs: int = 0
+    n_model: int = 0
 
     def __post_init__(self) -> None:
         cfg = self.cfg
@@ -159,6 +164,8 @@ class ModelRunner:
             )
         self.cfg = cfg
         self._key = _cfg_key(cfg)
+        if not 0 < self.n_model <= self.n_samples:
+            self.n_model = int(self.n_samples)
 
     @property
     def start_time(self) -> float:
@@ -173,13 +180,13 @@ class ModelRunner:
         return list(dict.fromkeys(out))
 
     def force_signals(self, effects: Sequence[object] = ()) -> np.ndarray:
-        """Simulated raw channels (bearing forces for housing channels), shape (n, n_sim_channels)."""
+        """Simulated raw channels (bearing forces for housing channels), shape (n_model, n_sim_channels)."""
         key = "|".join(
             [
                 self._key,
                 repr(self.operating_point),
                 str(self.sample_rate_hz),
-                str(self.n_samples),
+                str(self.n_model),
                 f"{self.start_time:.9f}",
                 ",".join(self.sim_channels()),
                 str(self.steps_per_mesh),
@@ -208,10 +215,11 @@ class ModelRunner:
             system_builder=cached_system,
         )
         i0 = round(self.start_time * self.sample_rate_hz)
-        block = sim.advance((i0 + self.n_samples) / self.sample_rate_hz + 0.5 / self.sample_rate_hz)
-        data = np.ascontiguousarray(block.data[i0 : i0 + self.n_samples])
-        if data.shape[0] != self.n_samples:
-            raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {self.n_samples}")
+        n = self.n_model
+        block = sim.advance((i0 + n) / self.sample_rate_hz + 0.5 / self.sample_rate_hz)
+        data = np.ascontiguousarray(block.data[i0 : i0 + n])
+        if data.shape[0] != n:
+            raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n}")
         add_direct_bearing_forces(
             data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, i0
         )
@@ -603,8 +611,12 @@ class Comparison:
                 self.d_order.append(cs)
                 self.v_order.append(vs)
             self._guard_zero_variance(measurement)
+        # transfer-slope abscissa: log10 of the frequency over the mesh frequency, held at the edges of
+        # the mesh-carrier band (harmonics 1..M) where the slope is fitted: a slope seen over half a
+        # decade of carriers is not extrapolated a decade down to the shaft orders
+        x_hi = float(np.log10(max(settings.mesh_harmonics, 1)))
         self._xf = [
-            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), -1.0, 1.0)
+            np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), 0.0, x_hi)
             if self.mesh_hz
             else np.zeros(sh.orders.size)
             for sh in self.shafts
@@ -663,10 +675,21 @@ class Comparison:
             self.families = tuple(f for f in self.families if f != "static")
             self.d_static = np.zeros(self.nc)
             self.v_static = np.full(self.nc, np.inf)
+            self.static_fluct = np.zeros(self.nc)
             return
         if "static" not in self.families:
             self.families = (*self.families, "static")
-        self.d_static = self.y.mean(axis=0)
+        # order 0 over whole hunting periods (the model's window, model_window.py): a partial cycle
+        # at the record's end biases the mean by its share of the once-per-cycle content
+        from gear_rotor_sim.calibration.model_window import whole_periods_samples
+
+        n_whole = whole_periods_samples(self.runner.cfg, self.speed_hz * 60.0, self.fs, self.y.shape[0])
+        self.d_static = self.y[:n_whole].mean(axis=0)
+        # where the teeth separate the mean of a channel is set by the dynamics (the share of the time
+        # in free flight and on either flank), not by a static deflection: its model-form uncertainty
+        # scales with the fluctuation, tolerance x the channel's standard deviation (negligible in
+        # continuous contact, where the fluctuation is a small part of the mean)
+        self.static_fluct = self.y[:n_whole].std(axis=0)
         n_per = max(round(self.fs / self.speed_hz), 1) if self.speed_hz else int(0.1 * self.fs)
         n_blk = max(self.y.shape[0] // n_per, 1)
         if n_blk >= 2:
@@ -698,7 +721,8 @@ class Comparison:
         """Fix the time shift and the envelope bands from the healthy model."""
         if "envelope" in self.families:
             self._choose_envelope_input(model)
-            resid = self.y - model * self._quick_gains(model)
+            y = self.y[: model.shape[0]]  # the model may cover whole hunting periods only
+            resid = y - model * self._quick_gains(model)
             self.bands = []
             self._y_env = [
                 self._envelope_input(self.y[:, c]) if self.env_use[c] else self.y[:, c]
@@ -777,7 +801,7 @@ class Comparison:
         return remove_synchronous(x, self.fs, [sh.ratio * self.speed_hz for sh in self.shafts])
 
     def _quick_gains(self, model: np.ndarray) -> np.ndarray:
-        num = np.sum(self.y * model, axis=0)
+        num = np.sum(self.y[: model.shape[0]] * model, axis=0)
         den = np.sum(model * model, axis=0)
         g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
         return np.clip(g, *self.s.gain_bounds) if self.s.fit_gain else np.ones(self.nc)
@@ -951,7 +975,8 @@ class Comparison:
 
     def order_gain(self, g: np.ndarray, c: int, s: int) -> np.ndarray | float:
         """Per-feature gain of channel ``c`` on shaft ``s``: ``g0 (1 + b x)``, ``x = log10(f / f_mesh)``
-        clipped to one decade either side (the smooth transfer correction; ``g`` is (nc,) or (nc, 2))."""
+        held within the mesh-carrier band ``[0, log10 M]`` where ``b`` is fitted (the smooth transfer
+        correction; ``g`` is (nc,) or (nc, 2))."""
         if g.ndim == 1:
             return g[c]
         return g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
@@ -1088,7 +1113,11 @@ class Comparison:
             idx = np.flatnonzero(self.static_mask)
             mg = g[idx] * feats.static[idx]
             d = self.d_static[idx]
-            s2 = self.v_static[idx] + (self.s.static_tolerance * np.minimum(np.abs(mg), np.abs(d))) ** 2
+            s2 = (
+                self.v_static[idx]
+                + (self.s.static_tolerance * np.minimum(np.abs(mg), np.abs(d))) ** 2
+                + (self.s.tolerance * self.static_fluct[idx]) ** 2
+            )
             static_r = (d - mg) / np.sqrt(s2)
             chi2["static"] = float(np.sum(static_r**2))
             n["static"] = int(idx.size)

@@ -144,6 +144,96 @@ def _mesh_solve_one(
     return -9, 0.0
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _row_two(
+    s: int,
+    i: int,
+    a1: float,
+    b1: float,
+    ai0: float,
+    ai1: float,
+    bi0: float,
+    bi1: float,
+    k: float,
+    e: float,
+    ed: float,
+    c: float,
+    b: float,
+) -> tuple[float, float, float]:
+    """Row ``(w_i0, w_i1 | rhs_i)`` of Eq 25 for mesh ``i`` of two in trial state ``s``
+    (``kernels._solve_states``)."""  # fmt: skip
+    if s == 2 or s == -2:
+        sg = 1.0 if s == 2 else -1.0
+        w0 = -k * ai0 - c * bi0
+        w1 = -k * ai1 - c * bi1
+        if i == 0:
+            w0 += 1.0
+        else:
+            w1 += 1.0
+        return w0, w1, k * (a1 - e - sg * b) + c * (b1 - ed)
+    if s == 0:
+        return (1.0, 0.0, 0.0) if i == 0 else (0.0, 1.0, 0.0)
+    sg = 1.0 if s == 1 else -1.0
+    return ai0, ai1, e + sg * b - a1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mesh_solve_two(
+    s0: int,
+    s1: int,
+    a10: float,
+    a11: float,
+    b10: float,
+    b11: float,
+    am00: float,
+    am01: float,
+    am10: float,
+    am11: float,
+    bm00: float,
+    bm01: float,
+    bm10: float,
+    bm11: float,
+    k0: float,
+    k1: float,
+    e0: float,
+    e1: float,
+    ed0: float,
+    ed1: float,
+    c0: float,
+    c1: float,
+    bs0: float,
+    bs1: float,
+) -> tuple[int, int, float, float]:
+    """Two meshes: the consistent contact states and forces by the active set of
+    ``kernels.mesh_solve`` (2 x 2 solve by Cramer's rule, scalars only); state -9 when it does not
+    settle or the system is singular (the caller then falls back to :func:`_solve_meshes`)."""  # fmt: skip
+    for _ in range(_MAX_ACTIVE_SET_ITER):
+        w00, w01, r0 = _row_two(s0, 0, a10, b10, am00, am01, bm00, bm01, k0, e0, ed0, c0, bs0)
+        w10, w11, r1 = _row_two(s1, 1, a11, b11, am10, am11, bm10, bm11, k1, e1, ed1, c1, bs1)
+        det = w00 * w11 - w01 * w10
+        if det == 0.0:
+            return -9, -9, 0.0, 0.0
+        f0 = (r0 * w11 - w01 * r1) / det
+        f1 = (w00 * r1 - w10 * r0) / det
+        dm0 = a10 + am00 * f0 + am01 * f1 - e0
+        dmd0 = b10 + bm00 * f0 + bm01 * f1 - ed0
+        dm1 = a11 + am10 * f0 + am11 * f1 - e1
+        dmd1 = b11 + bm10 * f0 + bm11 * f1 - ed1
+        n0 = _natural_state(
+            s0, dm0, dmd0, f0, c0, bs0, 1e-12 * (abs(bs0) + abs(dm0)) + 1e-20,
+            1e-12 * (abs(f0) + abs(c0 * dmd0)) + 1e-20,
+        )  # fmt: skip
+        n1 = _natural_state(
+            s1, dm1, dmd1, f1, c1, bs1, 1e-12 * (abs(bs1) + abs(dm1)) + 1e-20,
+            1e-12 * (abs(f1) + abs(c1 * dmd1)) + 1e-20,
+        )  # fmt: skip
+        if n0 == s0 and n1 == s1:
+            return s0, s1, f0, f1
+        s0 = n0
+        s1 = n1
+    return -9, -9, 0.0, 0.0
+
+
 @njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
 def _state_force(s: int, dm: float, dmd: float, k: float, c: float, b: float, f_now: float) -> float:
     """Eq 25 in contact state ``s`` (pinned states keep ``f_now``: their force is set-valued)."""
@@ -303,7 +393,7 @@ def _set_columns(
         beta[c + j] = coef[i, j] * fm
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
 def _event_step(
     n: int,
     m0: int,
@@ -321,6 +411,8 @@ def _event_step(
     work: tuple,
     dt: float,
     bound: float,
+    expo: bool,
+    mu_max: float,
 ) -> tuple[int, int, int]:
     """Step n-1 -> n as Newmark sub-steps split at the table jumps ``bnd[1..m0-1]`` (fractions of the
     step, phases ``bfe``, mesh ``bmesh``), at a jump of mesh i at the step end (``endfe[i]`` >= 0) and
@@ -336,11 +428,12 @@ def _event_step(
     event step, not one per sub-step and helper: every array handed over costs a reference count).
 
     ``prev`` = (d, dd, e, ed, f, s) per mesh at the step start, updated to the step end; ``cur`` =
-    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force) receive the end values. Returns
-    (status, failed solves, sub-steps).
+    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force) receive the end values. ``expo``: the map
+    is the exact modal propagator (``newmark.step_map(exact=True)``), and so are its sub-steps.
+    Returns (status, failed solves, sub-steps).
     """
     bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev
-    zr, zi, _rr, _ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
+    zr, zi, rr, ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
     pq, pqn, _pq_static, rstat, _pd, _pv, mesh_par = mesh
     _phase, phase_rate, kfac, te_add, ted_add, ampl = exc
     d_p, dd_p, e_p, ed_p, f_p, s_p = prev
@@ -389,17 +482,34 @@ def _event_step(
         w = tb - ta
         # --- sub-step map r', rho over all modes
         for j in range(nmode):
-            ar = 0.5 * w * mur[j]
-            ai = 0.5 * w * mui[j]
-            dr = 1.0 - ar
-            inv = 1.0 / (dr * dr + ai * ai)
-            nr_ = 1.0 + ar
-            rpr[j] = (nr_ * dr - ai * ai) * inv
-            rpi[j] = (ai * dr + nr_ * ai) * inv
-            er = 1.0 - 0.5 * mur[j]
-            ei = -0.5 * mui[j]
-            rhr[j] = w * (er * dr - ei * ai) * inv
-            rhi[j] = w * (ei * dr + er * ai) * inv
+            if not expo or mur[j] * mur[j] + mui[j] * mui[j] > mu_max * mu_max:
+                # Newmark: r' = (1 + w mu/2)/(1 - w mu/2), rho = w (1 - mu/2)/(1 - w mu/2)
+                ar = 0.5 * w * mur[j]
+                ai = 0.5 * w * mui[j]
+                dr = 1.0 - ar
+                inv = 1.0 / (dr * dr + ai * ai)
+                nr_ = 1.0 + ar
+                rpr[j] = (nr_ * dr - ai * ai) * inv
+                rpi[j] = (ai * dr + nr_ * ai) * inv
+                er = 1.0 - 0.5 * mur[j]
+                ei = -0.5 * mui[j]
+                rhr[j] = w * (er * dr - ei * ai) * inv
+                rhi[j] = w * (ei * dr + er * ai) * inv
+            else:  # exact propagator: r' = exp(w mu), rho = (exp(w mu) - 1) / (exp(mu) - 1), exp(mu) = r
+                ex = np.exp(w * mur[j])
+                cr = ex * np.cos(w * mui[j])
+                ci = ex * np.sin(w * mui[j])
+                rpr[j] = cr
+                rpi[j] = ci
+                dr = rr[j] - 1.0
+                di = ri[j]
+                den = dr * dr + di * di
+                if den > 1e-30:
+                    rhr[j] = ((cr - 1.0) * dr + ci * di) / den
+                    rhi[j] = (ci * dr - (cr - 1.0) * di) / den
+                else:  # mu -> 0: rho -> w
+                    rhr[j] = w
+                    rhi[j] = 0.0
         # --- responses of delta, delta' at the sub-step end (reductions over the forced modes)
         for r in range(npm):
             sm = 0.0
@@ -689,6 +799,8 @@ def run_chunk_gear(
     locate: bool,
     bound: float,
     fuse: bool = True,
+    expo: bool = False,
+    mu_max: float = 1.0,
 ) -> tuple[int, int, int, int]:
     """Advance ``n = phase.shape[0] - 1`` steps of the modal map with ``nm >= 1`` table meshes.
 
@@ -1010,9 +1122,22 @@ def run_chunk_gear(
                             tv += pv[i, l] * w
                         am[i, j] = td
                         bm[i, j] = tv
-                fail = _solve_meshes(
-                    s_p, -1, a1, b1, am, bm, kk, ee, ed, cm, bst, force, new_state, swork, srhs, trial
-                )
+                ns0 = ns1 = -9
+                if nm == 2:  # scalars (two-stage trains)
+                    ns0, ns1, f0, f1 = _mesh_solve_two(
+                        s_p[0], s_p[1], a1[0], a1[1], b1[0], b1[1], am[0, 0], am[0, 1], am[1, 0], am[1, 1],
+                        bm[0, 0], bm[0, 1], bm[1, 0], bm[1, 1], kk[0], kk[1], ee[0], ee[1], ed[0], ed[1],
+                        cm[0], cm[1], bst[0], bst[1],
+                    )  # fmt: skip
+                if ns0 != -9:
+                    new_state[0] = ns0
+                    new_state[1] = ns1
+                    force[0] = f0
+                    force[1] = f1
+                else:
+                    fail = _solve_meshes(
+                        s_p, -1, a1, b1, am, bm, kk, ee, ed, cm, bst, force, new_state, swork, srhs, trial
+                    )
             if locate:
                 # a contact change inside the step: locate it from this full-step solution, then redo
                 # the step as two sub-steps split there (none if no crossing is found)
@@ -1194,8 +1319,9 @@ def run_chunk_gear(
         else:
             # a step holding an event: Newmark sub-steps split there
             status, nfl, nsb = _event_step(
-                n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound
-            )
+                n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound,
+                expo, mu_max,
+            )  # fmt: skip
             n_fail += nfl
             n_sub += nsb
             if status != STATUS_OK:

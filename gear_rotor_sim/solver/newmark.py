@@ -23,9 +23,10 @@ same map is run with the dense real transition matrix ``T = (I - hA/2)^-1 (I + h
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,7 +57,7 @@ _ALIGN = 64
 def aligned_zeros(shape: int | tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
     """C-contiguous zeros whose data pointer is 64-byte aligned."""
     shape_t = (shape,) if isinstance(shape, int) else tuple(shape)
-    n = int(np.prod(shape_t)) if shape_t else 1
+    n = math.prod(shape_t)
     item = np.dtype(dtype).itemsize
     buf = np.zeros(n * item + _ALIGN, dtype=np.uint8)
     off = (-buf.ctypes.data) % _ALIGN
@@ -433,6 +434,7 @@ class StepMap:
     resid: np.ndarray | None = None
     # (Re Phi^T, Im Phi^T, R^T) for ``kernels.modal_to_physical``, built on first use
     xrec: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    exact: bool = False  # the exact modal propagator instead of Newmark's map (step_map)
 
 
 def reduce_basis(basis: Basis, cutoff_hz: float) -> tuple[Basis, np.ndarray]:
@@ -479,8 +481,19 @@ def _pad(n: int) -> int:
     return max(8, -(-n // 8) * 8)
 
 
-def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelSpec]) -> StepMap:
-    """Trapezoidal (Newmark average acceleration) map of step ``dt`` in the basis."""
+def step_map(
+    lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelSpec], exact: bool = False
+) -> StepMap:
+    """Trapezoidal (Newmark average acceleration) map of step ``dt`` in the basis.
+
+    ``exact``: for the modes the step resolves (``|h lam| <= EXACT_MAP_MU_MAX``) the exact
+    propagator ``r = exp(h lam)``, with the forces by the same two-point quadrature weighted so that
+    a constant force gives the exact static response, ``s = (exp(h lam) - 1) / (2 lam)`` (-> h/2 for
+    h lam -> 0): free of Newmark's period error, second order in the forcing like Newmark. The
+    stiffer modes keep Newmark's map (quasi-static at the step: the two-point weights of the exact
+    propagator would make them follow the mean of the two end loads, half a step late). Docs:
+    docs/solver.md, "Exact modal map". The dense fallback stays Newmark's map.
+    """
     n = lin.nfree
     nstate = lin.nstate
     bf = np.zeros((nstate, lin.m))
@@ -520,6 +533,13 @@ def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelS
     den = 1.0 - 0.5 * dt * lam
     r = (1.0 + 0.5 * dt * lam) / den
     s = (0.5 * dt) / den
+    if exact:  # the modes the step resolves (|h lam| <= EXACT_MAP_MU_MAX)
+        mu = dt * lam
+        ex = np.abs(mu) <= EXACT_MAP_MU_MAX
+        small = np.abs(mu) < 1e-8
+        r = np.where(ex, np.exp(mu), r)
+        se = np.where(small, 0.5 * dt * (1.0 + 0.5 * mu), np.expm1(mu) / (2.0 * np.where(small, 1.0, lam)))
+        s = np.where(ex, se, s)
     w = basis.to_modal(bf)  # (nk, m) = Phi^-1 B f_k
     sw = (s[:, None] * w).T  # (m, nk)
     cm = mrows @ basis.phi  # (2nm, nk)
@@ -548,8 +568,12 @@ def step_map(lin: LinearModel, basis: Basis, dt: float, specs: Sequence[ChannelS
         aligned(df),
         basis,
         npad,
+        exact=bool(exact),
     )
 
+
+#: ``step_map(exact=True)``: modes with ``|h lambda|`` up to this value take the exact propagator.
+EXACT_MAP_MU_MAX = 1.0
 
 OUTPUT_BLOCK_STEPS = 64  # steps per output matrix product in the gear kernel (fits L1/L2)
 
@@ -1097,6 +1121,9 @@ class NewmarkStepper:
     locate_events : bool
         Gear kernel: split steps at the mesh-table jumps and contact changes of any mesh inside them
         (docs/solver.md); False takes every event at the step instants, as the general kernel does.
+    lin : LinearModel, optional
+        The linear model of ``system`` with ``effects`` if already at hand (the ramp systems of
+        :mod:`gear_rotor_sim.solver.rebase` derive it from their grid node's); None builds it.
     """
 
     def __init__(
@@ -1108,13 +1135,17 @@ class NewmarkStepper:
         cache_size: int = 16,
         disable_fast: bool = False,
         locate_events: bool = False,
+        lin: LinearModel | None = None,
     ) -> None:
         self.system = system
         self.specs = list(specs)
         self.effects = tuple(effects)
-        self.lin = LinearModel(system, effect_columns(system, self.effects))
+        self.lin = LinearModel(system, effect_columns(system, self.effects)) if lin is None else lin
         self.force_dense = force_dense
         self._bases: OrderedDict[float, Basis] = OrderedDict()
+        # where a basis not in the cache comes from (None: eigen_basis of ``lin``); the ramp systems of
+        # solver/rebase.py take their grid node's bases (the same state matrix)
+        self.basis_source: Callable[[float], Basis] | None = None
         self._cache_size = cache_size
         self.map: StepMap | None = None
         self.row_index = [i for i, s in enumerate(self.specs) if s.kind == "row"]
@@ -1127,6 +1158,7 @@ class NewmarkStepper:
         self.disable_fast = disable_fast
         self.fuse_meshes = True  # gear kernel: fused mode pass for <= 2 meshes (False: tests)
         self.modal_cutoff_hz: float | None = None  # modal reduction with static correction (None: full)
+        self.exact_map = False  # the exact modal propagator instead of Newmark's map (step_map)
         self._reduced: dict[tuple[float, float], tuple[Basis, np.ndarray]] = {}
         self.locate_events = bool(locate_events)
         self.n_substeps = 0
@@ -1137,29 +1169,14 @@ class NewmarkStepper:
     def basis(self, omega: float) -> Basis:
         b = self._bases.get(omega)
         if b is None:
-            b = eigen_basis(self.lin, omega, self.force_dense)
+            src = self.basis_source
+            b = eigen_basis(self.lin, omega, self.force_dense) if src is None else src(omega)
             self._bases[omega] = b
             if len(self._bases) > self._cache_size:
                 self._bases.popitem(last=False)
         else:
             self._bases.move_to_end(omega)
         return b
-
-    def share_bases(self, other: NewmarkStepper) -> None:
-        """Use (and fill) ``other``'s eigenbasis cache: the two must have the same linear part.
-
-        For the ramp systems of :mod:`gear_rotor_sim.solver.rebase`, which keep a grid node's M, K, C,
-        G and mean mesh terms and change only the static load and the mesh tables: the state matrix
-        is the node's bit for bit, so are its eigenbases. Raises ValueError if the linear parts differ.
-        """
-        a, b = self.lin, other.lin
-        same = a.nfree == b.nfree and all(
-            np.array_equal(getattr(a, k), getattr(b, k)) for k in ("M", "MinvK", "MinvC", "MinvG", "V")
-        )
-        same = same and np.array_equal(a.MinvF[:, 1:], b.MinvF[:, 1:])  # the forced-mode order
-        if not same:
-            raise ValueError("share_bases: the linear parts differ (the eigenbases would not be exact)")
-        self._bases = other._bases
 
     def set_operating_point(self, omega: float, dt: float, state: SolverState) -> None:
         """Select the basis at quantised input speed ``omega`` (rad/s) and step ``dt``; load ``state``."""
@@ -1169,6 +1186,7 @@ class NewmarkStepper:
             or self.map.basis.omega != omega
             or self.map.dt != dt
             or (self.map.resid is None) != (cut is None)
+            or self.map.exact != (self.exact_map and not self.map.dense)
         ):
             basis = self.basis(omega)
             resid = None
@@ -1181,11 +1199,11 @@ class NewmarkStepper:
                     if len(self._reduced) > self._cache_size:
                         self._reduced.pop(next(iter(self._reduced)))
                 basis, resid = hit
-            self.map = step_map(self.lin, basis, dt, self.specs)
+            self.map = step_map(self.lin, basis, dt, self.specs, self.exact_map)
             self.map.resid = resid
             self.gear = None if self.disable_fast else gear_map(self.lin, self.map, self.specs)
             if resid is not None and self.gear is None:  # only the gear kernel takes a reduced basis
-                self.map = step_map(self.lin, self.basis(omega), dt, self.specs)
+                self.map = step_map(self.lin, self.basis(omega), dt, self.specs, self.exact_map)
         self.load_state(state)
 
     def _beta_of(self, st: SolverState) -> np.ndarray:
@@ -1404,6 +1422,8 @@ class NewmarkStepper:
             bool(self.locate_events),
             bound,
             self.fuse_meshes,
+            mp.exact,
+            EXACT_MAP_MU_MAX,
         )
         self.n_substeps += nsub
         self.n_mesh_fail += nfail

@@ -65,6 +65,7 @@ def simulate_steady(
     locate_events: bool | None = None,
     contact_loss_rate_hz: float | None = CONTACT_LOSS_RATE_HZ,
     modal_cutoff_hz: float | None = None,
+    exact_modal_map: bool | None = False,
 ) -> tuple[SteadyResult, SolverState]:
     """Constant-speed run with ``dt = T_mesh / N`` exactly (Poincare-ready), N by the dt rule.
 
@@ -95,6 +96,10 @@ def simulate_steady(
     modal_cutoff_hz : float or None
         Modal reduction with static correction above this frequency (Hz; docs/solver.md, "Modal
         reduction"); None: the full model.
+    exact_modal_map : bool or None
+        The exact modal propagator instead of Newmark's map (``newmark.step_map(exact=True)``; it has
+        no period error, so the dt rule's resonance part is not applied). None: only where that
+        resonance part would raise the rate (as the Simulator's default). Default False: Newmark.
 
     Returns
     -------
@@ -125,6 +130,13 @@ def simulate_steady(
     if adaptive:  # a light mode near a low harmonic of any mesh
         light = light_mesh_modes(stepper.lin, stepper.basis(omega_q))
         res_rate = max(resonance_rate_hz(f, light) for f in mesh_frequencies_hz(system, speed_rpm))
+    if exact_modal_map is None:  # the exact map instead of resolving a light mode near a mesh line
+        exact_modal_map = res_rate > 0.0 and rule_steps_per_mesh(
+            f_mesh, False, int(steps_per_mesh), contact_loss_rate_hz, res_rate
+        ) > rule_steps_per_mesh(f_mesh, False, int(steps_per_mesh), contact_loss_rate_hz, 0.0)
+    if exact_modal_map:
+        res_rate = 0.0
+    stepper.exact_map = bool(exact_modal_map)
     spm = rule_steps_per_mesh(f_mesh, False, int(steps_per_mesh), contact_loss_rate_hz, res_rate)
     stepper.locate_events = located(spm, False)
     dt = period / spm

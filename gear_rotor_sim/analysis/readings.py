@@ -1,0 +1,214 @@
+"""Readings of the paper's text tried against its Fig 6 bands (issue 13, the as-published band).
+
+Sun et al. (2021) leave several choices open or state them twice in different ways. Each *reading*
+below is one such choice, taken from the paper's text and applied on top of the as-published
+configuration (``paper_sun2021_as_published``: the gear mass in Eq 20 and Eq 32). For every reading
+the main chaotic band of the three Fig 6 panels is resolved on a fine speed grid (one continuation
+segment, the band being the widest chaotic window after joining windows closer than ``gap_rpm``, as
+:func:`gear_rotor_sim.analysis.reproduce.refine_main_band` does), and the 25 C motion sequence over
+500-20000 rpm on a coarse grid. Nothing is fitted: each reading is a discrete alternative of the
+text, and the table reports what each gives, whichever way it goes.
+
+Readings (the paper's words in quotes):
+
+* ``as_published``: Eq 27 "b is half of the backlash" with Sec 4.2 "the initial backlash is b = 35
+  um" (half backlash 35 um), output torque T2 = 200 N m (Table 3), speed swept upwards ("with the
+  increase of rotating speed (500-20000 rpm)").
+* ``sweep_down``: the same model swept from high to low speed (the paper does not state the direction
+  of its continuation; coexisting attractors make the band edges path-dependent).
+* ``total_backlash``: Sec 4.2 "the initial backlash is b = 35 um" read as the whole backlash, so the
+  half backlash of Eq 27 is 17.5 um.
+* ``torque_150``: the output torque the paper's Fig 7 implies: its cold bearing-2 force at 1000 rpm
+  (1088 N) is the static share of a 150 N m torque, not of Table 3's 200 N m (docs/REPRODUCTION.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gear_rotor_sim.analysis.bifurcation import (
+    BIFURCATION_CHANNELS,
+    BifurcationResult,
+    Case,
+    RunSettings,
+    reduce_bifurcation,
+    run_segment,
+)
+from gear_rotor_sim.analysis.paper_data import PANELS, PAPER_CHAOS
+
+PUBLISHED = "paper_sun2021_as_published"
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One reading of the paper: overrides of the as-published case and the sweep direction."""
+
+    key: str
+    title: str
+    text: str
+    overrides: tuple[tuple[str, float], ...] = ()
+    downward: bool = False
+
+
+READINGS: tuple[Reading, ...] = (
+    Reading(
+        "as_published",
+        "as published (Eq 32 gear mass, half backlash 35 um, T2 200 N m, upward)",
+        'Eq 27 "b is half of the backlash", Sec 4.2 "the initial backlash is b = 35 um"; Table 3 '
+        'T2 = 200 N m; Sec 4.2 "with the increase of rotating speed"',
+    ),
+    Reading(
+        "sweep_down",
+        "swept downward",
+        "the direction of the paper's continuation is not stated",
+        downward=True,
+    ),
+    Reading(
+        "total_backlash",
+        "backlash 35 um in total (half 17.5 um)",
+        'Sec 4.2 "the initial backlash is b = 35 um" read as the whole backlash',
+        (("half_backlash_m", 17.5e-6),),
+    ),
+    Reading(
+        "torque_150",
+        "output torque 150 N m",
+        "the torque whose static share is the paper's cold Fig 7 bearing force (1088 N at 1000 rpm)",
+        (("load_torque_nm", 150.0),),
+    ),
+)
+
+#: Fine re-sweep windows per Fig 6 panel (rpm): the paper's band with at least 1500 rpm either side.
+FINE_WINDOWS: dict[str, tuple[float, float]] = {
+    "25C": (12000.0, 15800.0),
+    "225C": (11500.0, 15800.0),
+    "225C_fixed": (10600.0, 15800.0),
+}
+
+
+def reading_case(reading: Reading, panel: str) -> Case:
+    """The as-published Fig 6 case of ``panel`` with the reading's overrides."""
+    return dataclasses.replace(PANELS[panel], config=PUBLISHED, overrides=reading.overrides)
+
+
+def sweep(
+    case: Case, speeds_rpm: np.ndarray, settings: RunSettings, downward: bool = False
+) -> BifurcationResult:
+    """One continuation segment over ``speeds_rpm`` (increasing, or decreasing when ``downward``);
+    the result is ordered by increasing speed either way."""
+    speeds = np.sort(np.asarray(speeds_rpm, dtype=float))
+    order = speeds[::-1] if downward else speeds
+    t0 = time.perf_counter()
+    out = run_segment(case, order, settings, BIFURCATION_CHANNELS, reduce_bifurcation)
+    if downward:
+        out = {k: v[::-1] for k, v in out.items()}
+    return BifurcationResult(
+        case=case,
+        speeds_rpm=speeds,
+        section=out["section"],
+        section_v=out["section_v"],
+        dte_min=out["dte_min"],
+        dte_max=out["dte_max"],
+        dte_rms=out["dte_rms"],
+        dte_v_range=out["dte_v_range"],
+        settings=settings,
+        wall_time_s=time.perf_counter() - t0,
+        meta={"downward": downward},
+    )
+
+
+def main_band_of(res: BifurcationResult, gap_rpm: float, above_rpm: float = 11000.0) -> tuple[float, float]:
+    """Widest chaotic window ending above ``above_rpm`` after joining windows closer than ``gap_rpm``."""
+    from gear_rotor_sim.analysis.reproduce import merge_windows
+
+    joined = [w for w in merge_windows(res.chaotic_windows(merge_gap=1), gap_rpm) if w[1] >= above_rpm]
+    if not joined:
+        return float("nan"), float("nan")
+    return max(joined, key=lambda w: w[1] - w[0])
+
+
+def lower_edge_detail(
+    res: BifurcationResult, edge_rpm: float, before: int = 2, after: int = 3
+) -> list[dict[str, Any]]:
+    """Motion, 0-1 test statistic K and spread of the Poincare section (peak-to-peak over the DTE
+    range) at the speeds around the lower edge of a band: whether the edge is a detection threshold
+    (weak, narrow-band chaos that a bifurcation diagram would show as multi-period) or a jump into
+    fully developed chaos."""
+    motions = res.classify()
+    i = int(np.searchsorted(res.speeds_rpm, edge_rpm))
+    out = []
+    for j in range(max(i - before, 0), min(i + after, res.speeds_rpm.size)):
+        rng = float(res.dte_max[j] - res.dte_min[j])
+        out.append(
+            {
+                "speed_rpm": float(res.speeds_rpm[j]),
+                "label": motions[j].label,
+                "k": float(motions[j].k),
+                "section_spread": float(np.ptp(res.section[j]) / rng) if rng > 0 else 0.0,
+            }
+        )
+    return out
+
+
+def readings_study(
+    settings: RunSettings,
+    coarse_speeds_rpm: np.ndarray,
+    step_rpm: float = 25.0,
+    gap_rpm: float = 250.0,
+    readings: tuple[Reading, ...] = READINGS,
+    panels: tuple[str, ...] = tuple(PANELS),
+) -> dict[str, Any]:
+    """Fine Fig 6 main bands of every panel and the coarse 25 C sequence for every reading.
+
+    Returns
+    -------
+    dict
+        ``readings``: per reading ``key``, ``title``, ``text``, ``bands_rpm`` (panel -> [low, high]),
+        ``edge_errors_rpm`` (panel -> [low - paper low, high - paper high]), ``windows_rpm`` (panel ->
+        fine chaotic windows), ``sequence_25c`` (label, low, high on the coarse grid); plus
+        ``step_rpm``, ``gap_rpm``, ``fine_windows_rpm``, ``paper_rpm`` and ``wall_time_s``.
+    """
+    from gear_rotor_sim.analysis.reproduce import _condensed
+
+    t0 = time.perf_counter()
+    rows = []
+    edge: list[dict[str, Any]] = []
+    for rd in readings:
+        bands, errors, windows = {}, {}, {}
+        for panel in panels:
+            lo, hi = FINE_WINDOWS[panel]
+            speeds = np.arange(lo, hi + step_rpm / 2, step_rpm)
+            res = sweep(reading_case(rd, panel), speeds, settings, rd.downward)
+            b = main_band_of(res, gap_rpm)
+            plo, phi = PAPER_CHAOS[panel][0]
+            bands[panel] = [float(b[0]), float(b[1])]
+            errors[panel] = [float(b[0] - plo), float(b[1] - phi)]
+            windows[panel] = [[float(a), float(c)] for a, c in res.chaotic_windows(merge_gap=1)]
+            if rd.key == readings[0].key and panel == "25C" and np.isfinite(b[0]):
+                edge = lower_edge_detail(res, b[0])
+        coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward)
+        sequence = _condensed(coarse.windows(), 3, coarse.speeds_rpm)
+        rows.append(
+            {
+                "key": rd.key,
+                "title": rd.title,
+                "text": rd.text,
+                "bands_rpm": bands,
+                "edge_errors_rpm": errors,
+                "windows_rpm": windows,
+                "sequence_25c": [[lab, float(a), float(c)] for lab, a, c in sequence],
+            }
+        )
+    return {
+        "readings": rows,
+        "step_rpm": step_rpm,
+        "gap_rpm": gap_rpm,
+        "fine_windows_rpm": {k: list(v) for k, v in FINE_WINDOWS.items() if k in panels},
+        "paper_rpm": {k: list(PAPER_CHAOS[k][0]) for k in panels},
+        "lower_edge_25c": edge,
+        "wall_time_s": time.perf_counter() - t0,
+    }
