@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from gear_rotor_sim.calibration.features_orders import (
+    leading_transient_s,
     remove_synchronous,
     sideband_ratios,
     synchronous_part,
@@ -68,6 +69,24 @@ def test_synchronous_removal_keeps_what_is_not_periodic_with_a_shaft() -> None:
     assert abs(np.var(plain) / np.var(noise) - expected) <= 0.01, (np.var(plain), expected)
     kept = np.var(remove_synchronous(noise, fs, [f1, f2])) / np.var(noise)
     assert abs(kept - 1.0) <= 0.005, kept
+
+
+def test_leading_transient_found_and_steady_record_untouched() -> None:
+    """Gear content of both shafts plus 2 % noise: no transient; with a free vibration at 1234 Hz
+    (periodic with no shaft) decaying over the first 60 ms on one of two channels, the skipped head
+    covers it (independent truth: the construction)."""
+    fs, n = 20000.0, 40000
+    t = np.arange(n) / fs
+    f1, f2 = 50.0, 50.0 * 29 / 49
+    gear = sum(np.cos(2 * np.pi * k * f1 * t + 0.3 * k) for k in (1, 29, 58)) + np.cos(
+        2 * np.pi * 48 * f2 * t
+    )
+    rng = np.random.default_rng(3)
+    x = np.column_stack([gear + 0.02 * np.std(gear) * rng.standard_normal(n) for _ in range(2)])
+    assert leading_transient_s(x, fs, [f1, f2]) == 0.0
+    x[:, 1] += 0.5 * np.exp(-t / 0.012) * np.sin(2 * np.pi * 1234.0 * t)
+    head = leading_transient_s(x, fs, [f1, f2])
+    assert 0.05 <= head <= 0.15, head
 
 
 def test_sideband_ratios_of_an_amplitude_modulated_carrier() -> None:

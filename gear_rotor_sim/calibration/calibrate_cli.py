@@ -18,7 +18,7 @@ import math
 import sys
 from pathlib import Path
 
-from gear_rotor_sim.calibration.measurement import MeasurementError, load_measurement
+from gear_rotor_sim.calibration.measurement import Measurement, MeasurementError, load_measurement
 
 EXIT_INVALID = 2
 EXIT_NON_FINITE = 3
@@ -71,10 +71,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--start",
         type=float,
-        default=0.0,
+        default=None,
         metavar="S",
-        help="analyse from S seconds into the record (default 0), e.g. to skip the start-up transient "
-        "of a recording that starts from rest (gear-rotor-sim record starts from static equilibrium)",
+        help="analyse from S seconds into the record (default: a leading start-up transient, as in a "
+        "recording that starts from rest or static equilibrium, is detected and skipped; 0 keeps it)",
     )
     parser.add_argument(
         "--tolerance",
@@ -89,6 +89,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=32,
         help="integration steps per mesh period of the model runs (default 32, as the simulator)",
     )
+
+
+def skip_start_transient(m: Measurement, gearbox: str | None = None) -> float:
+    """Start of the analysed part: after a leading start-up transient of ``m`` (0 if none or if the
+    rig's shaft rates are unknown); a skip is listed in ``m.issues``."""
+    from gear_rotor_sim.calibration.features_orders import leading_transient_s
+    from gear_rotor_sim.config import load_config
+    from gear_rotor_sim.system import shaft_speed_ratios
+
+    try:
+        cfg = load_config(gearbox or m.gearbox)
+    except (ValueError, OSError, TypeError, KeyError):
+        return 0.0
+    f_in = m.operating_point.speed_rpm / 60.0
+    shafts = [abs(float(r)) * f_in for r in shaft_speed_ratios(cfg)]
+    start = leading_transient_s(m.data, m.sample_rate_hz, shafts)
+    if start > 0.0:
+        m.issues.append(
+            f"start-up transient: the first {start:.3g} s hold non-synchronous content above 3x its "
+            "level in the rest of the record (free vibration decaying); analysed from there (--start 0 "
+            "keeps it)"
+        )
+    return start
 
 
 def run(args: argparse.Namespace) -> int:
@@ -110,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
         and cwru.is_cwru_file(path)
         and not path.with_suffix(".yaml").exists()
     )
-    if not (math.isfinite(args.start) and args.start >= 0.0):
+    if args.start is not None and not (math.isfinite(args.start) and args.start >= 0.0):
         print(f"gear-rotor-sim calibrate: --start: {args.start} is not a time >= 0 s", file=sys.stderr)
         return EXIT_INVALID
     try:
@@ -122,8 +145,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             m = load_measurement(path, args.description, nan_policy)
             duration = args.duration
-        if duration is not None or args.start:
-            m = m.segment(args.start, duration)
+        start = args.start
+        if start is None:
+            start = 0.0 if use_cwru else skip_start_transient(m, args.gearbox)
+        if duration is not None or start:
+            m = m.segment(start, duration)
     except (MeasurementError, ValueError) as exc:
         print(f"gear-rotor-sim calibrate: {exc}", file=sys.stderr)
         return EXIT_INVALID
@@ -147,8 +173,11 @@ def run(args: argparse.Namespace) -> int:
                 ref = rb.calibrator_kwargs()
             elif args.baseline:
                 href = load_measurement(Path(args.baseline), None, nan_policy)
-                if args.duration is not None or args.start:
-                    href = href.segment(args.start, args.duration)
+                href_start = args.start
+                if href_start is None:
+                    href_start = skip_start_transient(href, args.gearbox)
+                if args.duration is not None or href_start:
+                    href = href.segment(href_start, args.duration)
                 if args.gearbox:
                     href.gearbox, href.bearing_type = args.gearbox, None
                 log(f"baseline: calibrating on {args.baseline}")

@@ -109,6 +109,50 @@ def remove_synchronous(
     return out
 
 
+def leading_transient_s(
+    x: np.ndarray,
+    fs: float,
+    shafts_hz: Sequence[float],
+    window_s: float = 0.05,
+    ratio: float = 3.0,
+    max_fraction: float = 0.25,
+) -> float:
+    """Length of a start-up transient at the head of a record, s (0 if none).
+
+    A record that starts from rest or from static equilibrium (``gear-rotor-sim record``, a machine
+    just switched on) holds free vibration that decays: content that is periodic with no shaft. The
+    non-synchronous part (:func:`remove_synchronous`) of each channel is cut into windows of
+    ``window_s``; the transient is the leading run of windows in which any channel's RMS exceeds
+    ``ratio`` times that channel's median window RMS, at most ``max_fraction`` of the record. A
+    steady record (noise, gear content, slipping bearing impacts are all stationary) gives 0.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Record (n, c), constant speed.
+    fs : float
+        Sample rate, Hz.
+    shafts_hz : sequence of float
+        Rotation frequency of every shaft, Hz.
+    """
+    x = np.asarray(x, dtype=float).reshape(x.shape[0], -1)
+    w = max(round(window_s * fs), 1)
+    n_win = x.shape[0] // w
+    if n_win < 4 or not shafts_hz:
+        return 0.0
+    hot = np.zeros(n_win, dtype=bool)
+    for c in range(x.shape[1]):
+        if not np.std(x[:, c]) > 0:
+            continue
+        r = remove_synchronous(x[:, c], fs, shafts_hz)
+        rms = np.sqrt(np.mean(r[: n_win * w].reshape(n_win, w) ** 2, axis=1))
+        med = float(np.median(rms))
+        if med > 0:
+            hot |= rms > ratio * med
+    n_lead = int(np.argmin(hot)) if not hot.all() else n_win
+    return min(n_lead, int(max_fraction * n_win)) * w / fs
+
+
 def sideband_ratios(
     coef: np.ndarray, orders: np.ndarray, teeth: int, harmonics: int, sidebands: int
 ) -> tuple[np.ndarray, np.ndarray]:
