@@ -109,7 +109,9 @@ class Material:
         tc = np.asarray(temperature_c, dtype=float)
         if not np.all(np.isfinite(tc)):
             raise ValueError(f"temperature_c: {temperature_c} is not finite (material {self.name!r})")
-        if np.any(tc < lo) or np.any(tc > hi):
+        # round-off of a temperature carried through a recording (24.99999999999999) is in range
+        tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
+        if np.any(tc < lo - tol) or np.any(tc > hi + tol):
             if self.out_of_range == "error":
                 raise ValueError(
                     f"temperature_c: {temperature_c} is outside the material range {lo:g}..{hi:g} C of "

@@ -423,7 +423,7 @@ class Simulator:
                 self._spans.popitem(last=False)
         omega = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
         stepper, carry = span.retarget(
-            system, omega, self.dt, self._cutoff_hz(near_sys, speed_rpm), self._state
+            system, omega, self.dt, self._cutoff_hz(near_sys, speed_rpm), self._state, self._exact
         )
         return stepper, carry and stepper is self._stepper
 

@@ -36,6 +36,17 @@ def test_out_of_range_error_names_field_and_range(t: float) -> None:
         carbon_steel().youngs_modulus(t)
 
 
+def test_round_off_at_the_range_edge_is_in_range() -> None:
+    """A temperature carried through a recording comes back as 24.99999999999999: in range; 1e-6 C
+    beyond an edge is not."""
+    mat = carbon_steel()
+    assert mat.youngs_modulus(24.99999999999999) == pytest.approx(mat.youngs_modulus(25.0), rel=1e-12)
+    assert mat.youngs_modulus(325.0 + 1e-13) == pytest.approx(mat.youngs_modulus(325.0), rel=1e-12)
+    for t in (25.0 - 1e-6, 325.0 + 1e-6):
+        with pytest.raises(ValueError, match=r"temperature_c"):
+            mat.youngs_modulus(t)
+
+
 def test_out_of_range_extrapolate_warns_once() -> None:
     mat = carbon_steel(out_of_range="extrapolate")
     with warnings.catch_warnings(record=True) as caught:

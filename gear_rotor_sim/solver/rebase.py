@@ -350,7 +350,7 @@ class RampSpan:
         self.effects = tuple(effects)
         self._make = make_stepper
         self.stepper = self._new_stepper(self.near_system)
-        self._key: tuple[float, float, float | None] | None = None
+        self._key: tuple[float, float, float | None, bool] | None = None
         self._base: tuple[Any, Any] | None = None
         self._diffs: list[tuple[Any, Any]] = []
         self._scales: list[float] = []
@@ -378,7 +378,7 @@ class RampSpan:
             cs.append(w if w > 0.0 and side * (temperature_c - t_n) > 0.0 else 0.0)
         return cs
 
-    def _prepare(self, omega: float, dt: float, cut: float | None, state: Any) -> None:
+    def _prepare(self, omega: float, dt: float, cut: float | None, exact: bool, state: Any) -> None:
         """Maps of the node, of each unit load added, of each neighbour's tables at (omega, dt)."""
         ns = self.near_system
         # each unit load scaled to the static load's norm: the difference of the two maps then keeps
@@ -396,6 +396,7 @@ class RampSpan:
         for system in [ns, *variants]:
             st = self._new_stepper(system)
             st.modal_cutoff_hz = cut
+            st.exact_map = exact
             st.set_operating_point(omega, dt, state)
             maps.append((st.map, st.gear))
         # the tables enter the gear kernel's arrays only (the step map holds no table): the node's
@@ -413,20 +414,28 @@ class RampSpan:
                 maps.append((a_map, gear))
         self._base = maps[0]
         self._diffs = [(_diff(maps[0][0], m[0]), _diff(maps[0][1], m[1])) for m in maps[1:]]
-        self._key = (omega, dt, cut)
+        self._key = (omega, dt, cut, exact)
 
     def retarget(
-        self, system: AssembledSystem, omega: float, dt: float, cut: float | None, state: Any
+        self,
+        system: AssembledSystem,
+        omega: float,
+        dt: float,
+        cut: float | None,
+        state: Any,
+        exact: bool = False,
     ) -> tuple[NewmarkStepper, bool]:
         """Set the span's stepper to the ramp system ``system`` (:func:`ramp_system` at a quantum
-        within half a grid step of the node) at speed omega, step dt and modal cut-off ``cut``;
-        ``state`` (a SolverState) is only read to build the maps. Returns the stepper and whether its
+        within half a grid step of the node) at speed omega, step dt, modal cut-off ``cut`` and
+        modal map (``exact``: ``NewmarkStepper.exact_map``); ``state`` (a SolverState) is only read to
+        build the maps. Returns the stepper and whether its
         modal state carries on (True: it already ran this span at the same speed and step; False:
         load the state into it)."""
-        if self._key != (omega, dt, cut):
-            self._prepare(omega, dt, cut, state)
+        if self._key != (omega, dt, cut, exact):
+            self._prepare(omega, dt, cut, exact, state)
         st = self.stepper
         carry = st.map is not None and st.map.basis.omega == omega and st.map.dt == dt
+        carry = carry and st.map.exact == self._base[0].exact  # type: ignore[index]
         carry = carry and self._base is not None and st.map.basis is self._base[0].basis
         coefs = self._coefficients(system.temperature_c)
         base_map, base_gear = self._base  # type: ignore[misc]
@@ -435,5 +444,6 @@ class RampSpan:
         st.system = system
         st.lin = ramp_linear_model(self.near.lin, system, self.effects)
         st.modal_cutoff_hz = cut
+        st.exact_map = exact
         st._reduced.clear()  # residual flexibilities hold the previous static-load column
         return st, carry
