@@ -121,9 +121,12 @@ def test_healthy_control_claims_nothing(rig, op: str) -> None:
     assert r.error_before < 1.5  # at the noise level despite gain error, noise and damping +20 %
 
 
-#: Known misses, each with its measured value (none since the transfer slope is held within the
-#: mesh-carrier band it is fitted on: B-shaft_misalignment@node1 was -25.3 %, now -2.9 %).
-KNOWN_MISSES: dict[str, str] = {}
+#: Known misses, each with its measured value.
+KNOWN_MISSES: dict[str, str] = {
+    "B-shaft_misalignment@node1": "offset now within 25 % (116.5 um for 120 um, -2.9 %, since the transfer "
+    "slope is held within the carrier band; was -25.3 %), but the error is not halved: 2.20 -> 1.277 "
+    "(ratio 0.58; below the 1.3 stop level, the effect's signature is weak at op B)",
+}
 
 
 @pytest.mark.parametrize(
