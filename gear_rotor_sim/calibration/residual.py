@@ -554,6 +554,10 @@ class ResidualSettings:
     #: largest non-synchronous share of the healthy model's RMS at a bearing channel for the
     #: non-synchronous envelope (above it the gear dynamics is not periodic: whole-signal envelope)
     envelope_periodic_limit: float = 0.01
+    #: fewest revolutions of the slowest shaft for the non-synchronous envelope: the synchronous
+    #: averages separate periodic from random content only over enough revolutions (their
+    #: significance test keeps an order at 3 standard errors of the between-revolution scatter)
+    envelope_min_revolutions: float = 10.0
 
 
 class Comparison:
@@ -774,6 +778,15 @@ class Comparison:
         every channel is used instead (as without a precise speed).
         """
         self.env_non_sync = bool(self.s.envelope_non_synchronous and "order" in self.families and self.shafts)
+        if self.env_non_sync:
+            revs = self.y.shape[0] / self.fs * min(abs(sh.ratio) for sh in self.shafts) * self.speed_hz
+            if revs < self.s.envelope_min_revolutions:
+                self.env_non_sync = False
+                self.m.issues.append(
+                    f"envelope: the record holds {revs:.3g} revolutions of the slowest shaft (< "
+                    f"{self.s.envelope_min_revolutions:g}, too few to separate periodic from random "
+                    "content): whole-signal envelope on every channel"
+                )
         if self.env_non_sync:
             idx = np.flatnonzero(self.env_use)
             ratios = []
