@@ -615,6 +615,23 @@ class BifurcationResult:
     wall_time_s: float
     meta: dict = field(default_factory=dict)
 
+    ARRAYS = ("section", "section_v", "dte_min", "dte_max", "dte_rms", "dte_v_range")
+
+    @classmethod
+    def from_arrays(
+        cls,
+        case: Case,
+        speeds_rpm: np.ndarray,
+        arrays: Any,
+        settings: RunSettings,
+        wall_time_s: float,
+        meta: dict | None = None,
+    ) -> BifurcationResult:
+        """Result from the per-speed arrays of :func:`reduce_bifurcation` (a mapping by field name)."""
+        return cls(
+            case, speeds_rpm, *(arrays[k] for k in cls.ARRAYS), settings, float(wall_time_s), dict(meta or {})
+        )
+
     def classify(self, rtol: float = 2e-3, max_period: int = 8, k_chaos: float = 0.5) -> list[Motion]:
         """Motion per speed (see :mod:`gear_rotor_sim.analysis.classify`), section in (DTE, DTE')."""
         out = []
@@ -660,18 +677,13 @@ class BifurcationResult:
         with np.load(path, allow_pickle=False) as z:
             if str(z["kind"]) != "bifurcation":
                 raise ValueError(f"{path}: not a bifurcation result (kind={z['kind']})")
-            return BifurcationResult(
-                case=Case.from_json(str(z["case"])),
-                speeds_rpm=z["speeds_rpm"],
-                section=z["section"],
-                section_v=z["section_v"],
-                dte_min=z["dte_min"],
-                dte_max=z["dte_max"],
-                dte_rms=z["dte_rms"],
-                dte_v_range=z["dte_v_range"],
-                settings=RunSettings(**json.loads(str(z["settings"]))),
-                wall_time_s=float(z["wall_time_s"]),
-                meta=json.loads(str(z["meta"])),
+            return BifurcationResult.from_arrays(
+                Case.from_json(str(z["case"])),
+                z["speeds_rpm"],
+                z,
+                RunSettings(**json.loads(str(z["settings"]))),
+                float(z["wall_time_s"]),
+                json.loads(str(z["meta"])),
             )
 
 
@@ -727,18 +739,13 @@ def run_bifurcation(
         segment_fn=segment_fn,
     )
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    return BifurcationResult(
-        case=case,
-        speeds_rpm=speeds,
-        section=cat["section"],
-        section_v=cat["section_v"],
-        dte_min=cat["dte_min"],
-        dte_max=cat["dte_max"],
-        dte_rms=cat["dte_rms"],
-        dte_v_range=cat["dte_v_range"],
-        settings=settings,
-        wall_time_s=time.perf_counter() - t0,
-        meta={
+    return BifurcationResult.from_arrays(
+        case,
+        speeds,
+        cat,
+        settings,
+        time.perf_counter() - t0,
+        {
             "workers": n_workers,
             "scheduler": scheduler or "",
             "segments": len(tasks),

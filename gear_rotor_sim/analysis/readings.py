@@ -106,18 +106,8 @@ def sweep(
     out = run_segment(case, order, settings, BIFURCATION_CHANNELS, reduce_bifurcation)
     if downward:
         out = {k: v[::-1] for k, v in out.items()}
-    return BifurcationResult(
-        case=case,
-        speeds_rpm=speeds,
-        section=out["section"],
-        section_v=out["section_v"],
-        dte_min=out["dte_min"],
-        dte_max=out["dte_max"],
-        dte_rms=out["dte_rms"],
-        dte_v_range=out["dte_v_range"],
-        settings=settings,
-        wall_time_s=time.perf_counter() - t0,
-        meta={"downward": downward},
+    return BifurcationResult.from_arrays(
+        case, speeds, out, settings, time.perf_counter() - t0, {"downward": downward}
     )
 
 
