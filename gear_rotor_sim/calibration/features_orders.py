@@ -9,8 +9,10 @@
   so the envelope of the remainder shows the bearing whatever the error of the mesh model.
 * :func:`sideband_ratios`: sideband-to-carrier ratios ``c_{mz+k} / c_{mz}`` of a shaft's
   synchronous average at the mesh harmonics; the gain and a smooth transfer path cancel.
-* :func:`fm4`, :func:`na4`: kurtosis of the difference signal (the synchronous average without the
-  mesh carriers and their first-order sidebands) (Stewart 1977; Zakrajsek et al. 1993).
+* :func:`leading_transient_s`: length of a start-up transient at the head of a record.
+
+FM4 / NA4 of the residual signal are computed by :mod:`gear_rotor_sim.fault_indicators` (the
+monitor's indicators); they are not features of the fit.
 """
 
 from __future__ import annotations
@@ -188,36 +190,3 @@ def sideband_ratios(
                 out.append(coef[j] / coef[c])
                 idx.append((m, k))
     return np.asarray(out, dtype=complex), np.asarray(idx, dtype=int).reshape(-1, 2)
-
-
-def difference_signal(coef: np.ndarray, orders: np.ndarray, teeth: int, n_points: int = 1024) -> np.ndarray:
-    """Difference signal of a synchronous average from its order coefficients: every order except
-    the mesh carriers ``m z`` and their first sidebands ``m z +- 1`` (one revolution, ``n_points``)."""
-    keep = np.ones(orders.size, dtype=bool)
-    if teeth:
-        r = np.mod(orders, teeth)
-        keep &= ~((r == 0) | (r == 1) | (r == teeth - 1))
-    spec = np.zeros(n_points // 2 + 1, dtype=complex)
-    ok = keep & (orders < spec.size)
-    spec[orders[ok]] = coef[ok] * n_points
-    return np.fft.irfft(spec, n_points)
-
-
-def fm4(coef: np.ndarray, orders: np.ndarray, teeth: int) -> float:
-    """FM4 (Stewart 1977): normalised kurtosis of the difference signal (3 for a Gaussian-like
-    signal, larger for a localised tooth fault)."""
-    d = difference_signal(coef, orders, teeth)
-    d = d - d.mean()
-    v = float(np.mean(d * d))
-    return float(np.mean(d**4) / v**2) if v > 0 else float("nan")
-
-
-def na4(coefs: Sequence[np.ndarray], orders: np.ndarray, teeth: int) -> float:
-    """NA4 (Zakrajsek et al. 1993): kurtosis of the latest difference signal normalised by the mean
-    variance of the difference signals of the run so far (``coefs``: successive averages, oldest
-    first), so that it keeps growing as damage spreads instead of returning to 3."""
-    ds = [difference_signal(c, orders, teeth) for c in coefs]
-    ds = [d - d.mean() for d in ds]
-    var = float(np.mean([np.mean(d * d) for d in ds]))
-    d = ds[-1]
-    return float(np.mean(d**4) / var**2) if var > 0 else float("nan")
