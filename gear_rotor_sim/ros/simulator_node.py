@@ -714,11 +714,15 @@ class SimulatorNode(Node):
         self._live.publish_status(fields, t_end)
 
     def _log_startup(self) -> None:
+        from gear_rotor_sim.warmup import kernel_compile_counts
+
         self.startup_s = time.monotonic() - self._t_constructed
         age = process_age_s()
+        loaded, compiled = kernel_compile_counts()
         self.get_logger().info(
             f"start-up: first message {self.startup_s:.2f} s after the node constructor"
             + (f", {age:.2f} s after the process started" if age is not None else "")
+            + f"; numba kernels: {loaded} loaded from the cache, {compiled} compiled"
         )
 
     def _simulate(self, out_q: queue.Queue) -> None:
