@@ -183,3 +183,29 @@ def test_edge_sensitivity_reports_divergence_and_renders(monkeypatch) -> None:
     assert "| zeta 0.05 | 13125-14775 | -375 / +75 | yes |" in text
     assert "| ref | 12775-14700 | -725 / +0 | no |" in text
     assert "zeta 0.05 (+350 rpm)" in text and "unchanged (same grid speed) with: transient x 2." in text
+
+
+def test_readings_study_keeps_a_diverged_panel(monkeypatch) -> None:
+    """A panel whose sweep leaves the physical range is reported with the speed, the other panels
+    and the report carry on."""
+    from gear_rotor_sim.analysis import readings
+    from gear_rotor_sim.analysis.reproduction_report import _write_readings
+    from gear_rotor_sim.solver.newmark import SimulationDiverged
+
+    real = readings.sweep
+
+    def fake(case, speeds, settings, downward=False, fresh=False):
+        if case.temperature_c == 225.0 and case.thermal_backlash:
+            raise SimulationDiverged(1.0, 13275.0, 225.0, "non-finite state")
+        return real(case, speeds[:2], settings, downward, fresh)
+
+    monkeypatch.setattr(readings, "sweep", fake)
+    st = readings.readings_study(
+        RunSettings(10, 20, 16, 2.0), np.array([3000.0, 3500.0]), readings=READINGS[:1]
+    )
+    row = st["readings"][0]
+    assert row["diverged_rpm"] == {"225C": 13275.0}
+    assert np.isnan(row["bands_rpm"]["225C"][0]) and row["sequence_25c"]
+    lines: list[str] = []
+    _write_readings(lines.append, st)
+    assert "run diverged at 13275 rpm" in "\n".join(lines)

@@ -195,29 +195,45 @@ def readings_study(
     dict
         ``readings``: per reading ``key``, ``title``, ``text``, ``bands_rpm`` (panel -> [low, high]),
         ``edge_errors_rpm`` (panel -> [low - paper low, high - paper high]), ``windows_rpm`` (panel ->
-        fine chaotic windows), ``sequence_25c`` (label, low, high on the coarse grid); plus
+        fine chaotic windows), ``sequence_25c`` (label, low, high on the coarse grid),
+        ``diverged_rpm`` (panel or ``"25C_coarse"`` -> speed where a run left the physical range,
+        :class:`gear_rotor_sim.solver.newmark.SimulationDiverged`; such a panel has NaN bands); plus
         ``step_rpm``, ``gap_rpm``, ``fine_windows_rpm``, ``paper_rpm`` and ``wall_time_s``.
     """
     from gear_rotor_sim.analysis.reproduce import _condensed
+    from gear_rotor_sim.solver.newmark import SimulationDiverged
 
     t0 = time.perf_counter()
     rows = []
     edge: list[dict[str, Any]] = []
     for rd in readings:
-        bands, errors, windows = {}, {}, {}
+        bands, errors, windows, diverged = {}, {}, {}, {}
         for panel in panels:
             lo, hi = FINE_WINDOWS[panel]
             speeds = np.arange(lo, hi + step_rpm / 2, step_rpm)
-            res = sweep(reading_case(rd, panel), speeds, settings, rd.downward, rd.fresh)
-            b = main_band_of(res, gap_rpm)
             plo, phi = PAPER_CHAOS[panel][0]
+            try:
+                res = sweep(reading_case(rd, panel), speeds, settings, rd.downward, rd.fresh)
+            except SimulationDiverged as exc:  # reported with its speed, not dropped
+                diverged[panel] = float(exc.speed_rpm)
+                bands[panel] = [float("nan")] * 2
+                errors[panel] = [float("nan")] * 2
+                windows[panel] = []
+                continue
+            b = main_band_of(res, gap_rpm)
             bands[panel] = [float(b[0]), float(b[1])]
             errors[panel] = [float(b[0] - plo), float(b[1] - phi)]
             windows[panel] = [[float(a), float(c)] for a, c in res.chaotic_windows(merge_gap=1)]
             if rd.key == readings[0].key and panel == "25C" and np.isfinite(b[0]):
                 edge = lower_edge_detail(res, b[0])
-        coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward, rd.fresh)
-        sequence = _condensed(coarse.windows(), 3, coarse.speeds_rpm)
+        try:
+            coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward, rd.fresh)
+            sequence = [
+                [lab, float(a), float(c)] for lab, a, c in _condensed(coarse.windows(), 3, coarse.speeds_rpm)
+            ]
+        except SimulationDiverged as exc:
+            diverged["25C_coarse"] = float(exc.speed_rpm)
+            sequence = []
         rows.append(
             {
                 "key": rd.key,
@@ -226,7 +242,8 @@ def readings_study(
                 "bands_rpm": bands,
                 "edge_errors_rpm": errors,
                 "windows_rpm": windows,
-                "sequence_25c": [[lab, float(a), float(c)] for lab, a, c in sequence],
+                "sequence_25c": sequence,
+                "diverged_rpm": diverged,
             }
         )
     return {

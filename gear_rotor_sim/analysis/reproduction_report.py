@@ -336,6 +336,10 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         for k in panels:
             lo, hi = x["bands_rpm"][k]
             el, eh = x["edge_errors_rpm"][k]
+            div = x.get("diverged_rpm", {}).get(k)
+            if div is not None:
+                cells.append(f"run diverged at {div:.0f} rpm")
+                continue
             cells.append("none" if not np.isfinite(lo) else f"{lo:.0f}-{hi:.0f} ({el:+.0f} / {eh:+.0f})")
         add(_row(x["title"], x["text"], *cells))
     add("")
@@ -373,7 +377,8 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
     add("")
     for x in rd["readings"]:
         seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"])
-        add(f"- {x['title']}: {seq}.")
+        div = x.get("diverged_rpm", {}).get("25C_coarse")
+        add(f"- {x['title']}: {seq}." if div is None else f"- {x['title']}: run diverged at {div:.0f} rpm.")
     add("")
     edge = rd.get("lower_edge_25c") or []
     if edge:
