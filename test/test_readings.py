@@ -116,3 +116,96 @@ def test_edge_verdict_tells_a_jump_from_weak_chaos() -> None:
     weak = [{**jump[0]}, {**jump[1], "k": 0.6}]
     assert "fully developed chaos (K 0.99 at 200 rpm)" in _edge_verdict(jump)
     assert "weak chaos (K 0.60 at 200 rpm)" in _edge_verdict(weak)
+
+
+def test_new_readings_change_only_what_they_name() -> None:
+    base = build_config(reading_case(_reading("as_published"), "25C"))
+    nodamp = build_config(reading_case(_reading("no_shaft_damping"), "25C"))
+    assert nodamp.rayleigh_damping.stiffness_s == 0.0 and base.rayleigh_damping.stiffness_s > 0.0
+    assert nodamp.replace(rayleigh_damping=base.rayleigh_damping) == base
+    fresh = _reading("fresh_start")
+    assert fresh.fresh and not fresh.overrides and not fresh.downward
+    assert build_config(reading_case(fresh, "25C")) == base
+    # the transmission-error phase is an override of the mesh (the edge-sensitivity table varies it)
+    from gear_rotor_sim.analysis.bifurcation import Case
+
+    phased = build_config(Case(25.0, overrides=(("transmission_error_phase_rad", 1.25),)))
+    assert phased.meshes[0].transmission_error_phase_rad == 1.25
+
+
+def test_fresh_sweep_starts_every_speed_cold() -> None:
+    """Without continuation each speed equals a cold run started at that speed alone, whatever came
+    before it; with continuation the second speed starts from the first one's final state."""
+    settings = RunSettings(10, 20, 16, 2.0)
+    case = reading_case(_reading("as_published"), "25C")
+    speeds = np.array([3000.0, 3500.0])
+    fresh = sweep(case, speeds, settings, fresh=True)
+    cont = sweep(case, speeds, settings)
+    cold = sweep(case, speeds[1:], settings)
+    assert np.array_equal(fresh.speeds_rpm, speeds) and fresh.meta["fresh"]
+    np.testing.assert_array_equal(fresh.section[1], cold.section[0])
+    np.testing.assert_array_equal(fresh.section[0], cont.section[0])
+    assert not np.array_equal(cont.section[1], cold.section[0])
+
+
+def test_edge_sensitivity_reports_divergence_and_renders(monkeypatch) -> None:
+    """A variation whose run leaves the physical range is a row with the speed where it did (not
+    dropped, not an exception); the report lists the bands and says which variations moved the edge."""
+    from gear_rotor_sim.analysis import readings
+    from gear_rotor_sim.analysis.reproduction_report import _write_edge_sensitivity
+    from gear_rotor_sim.solver.newmark import SimulationDiverged
+
+    bands = {"reference": (12775.0, 14700.0), "a": (13125.0, 14775.0), "b": None, "c": (12775.0, 14675.0)}
+
+    def fake_sweep(case, speeds, settings, downward=False, fresh=False):
+        key = dict(case.overrides).get("damping_ratio", 0.0)
+        name = {0.0: "reference", 0.05: "a", 0.03: "b"}.get(key, "c")
+        if bands[name] is None:
+            raise SimulationDiverged(1.0, 15500.0, 25.0, "|DTE| above 0.01 m")
+        return bands[name]
+
+    monkeypatch.setattr(readings, "sweep", fake_sweep)
+    monkeypatch.setattr(readings, "main_band_of", lambda res, gap: res)
+    var = (
+        readings.Variation("reference", "ref"),
+        readings.Variation("a", "zeta 0.05", (("damping_ratio", 0.05),)),
+        readings.Variation("b", "zeta 0.03", (("damping_ratio", 0.03),)),
+        readings.Variation("c", "transient x 2", transient_factor=2.0),
+    )
+    es = readings.edge_sensitivity(RunSettings(10, 20, 16, 2.0), variations=var)
+    rows = {r["key"]: r for r in es["rows"]}
+    assert rows["b"]["diverged_rpm"] == 15500.0 and rows["a"]["diverged_rpm"] is None
+    assert rows["a"]["edge_errors_rpm"] == [13125.0 - 13500.0, 14775.0 - 14700.0]
+    lines: list[str] = []
+    _write_edge_sensitivity(lines.append, es)
+    text = "\n".join(lines)
+    assert "| zeta 0.03 | run diverged at 15500 rpm | - | - |" in text
+    assert "| zeta 0.05 | 13125-14775 | -375 / +75 | yes |" in text
+    assert "| ref | 12775-14700 | -725 / +0 | no |" in text
+    assert "zeta 0.05 (+350 rpm)" in text and "unchanged (same grid speed) with: transient x 2." in text
+
+
+def test_readings_study_keeps_a_diverged_panel(monkeypatch) -> None:
+    """A panel whose sweep leaves the physical range is reported with the speed, the other panels
+    and the report carry on."""
+    from gear_rotor_sim.analysis import readings
+    from gear_rotor_sim.analysis.reproduction_report import _write_readings
+    from gear_rotor_sim.solver.newmark import SimulationDiverged
+
+    real = readings.sweep
+
+    def fake(case, speeds, settings, downward=False, fresh=False):
+        if case.temperature_c == 225.0 and case.thermal_backlash:
+            raise SimulationDiverged(1.0, 13275.0, 225.0, "non-finite state")
+        return real(case, speeds[:2], settings, downward, fresh)
+
+    monkeypatch.setattr(readings, "sweep", fake)
+    st = readings.readings_study(
+        RunSettings(10, 20, 16, 2.0), np.array([3000.0, 3500.0]), readings=READINGS[:1]
+    )
+    row = st["readings"][0]
+    assert row["diverged_rpm"] == {"225C": 13275.0}
+    assert np.isnan(row["bands_rpm"]["225C"][0]) and row["sequence_25c"]
+    lines: list[str] = []
+    _write_readings(lines.append, st)
+    assert "run diverged at 13275 rpm" in "\n".join(lines)

@@ -44,6 +44,7 @@ MESH_OVERRIDES = (
     "damping_ratio",
     "half_backlash_m",
     "transmission_error_amplitude_m",
+    "transmission_error_phase_rad",
 )
 RAYLEIGH_OVERRIDES = ("mass_per_s", "stiffness_s")
 #: Overrides of the configuration's load: the output torque T2 (Table 3: 200 N m), N m.
@@ -66,7 +67,8 @@ class Case:
         Whether the backlash shrinks with temperature (Eq 27); ``False`` is the paper's Fig 6c.
     overrides : tuple of (str, float)
         Parameter changes for sensitivity studies: mesh fields (``friction_coefficient``,
-        ``damping_ratio``, ``half_backlash_m``, ``transmission_error_amplitude_m``), shaft
+        ``damping_ratio``, ``half_backlash_m``, ``transmission_error_amplitude_m``,
+        ``transmission_error_phase_rad``), shaft
         Rayleigh damping (``mass_per_s``, ``stiffness_s``), the output torque ``load_torque_nm`` and
         ``mesh_stiffness_scale`` (multiplies the potential-energy mesh stiffness at every phase, see
         :func:`scale_mesh_stiffness`).
