@@ -133,6 +133,17 @@ def test_diagnosis_against_a_healthy_baseline_at_another_speed(records, referenc
     ]
 
 
+def test_temperature_offset_against_a_healthy_baseline_at_another_speed(records, reference) -> None:
+    """The 2000 rpm / 25 C baseline held on a record running 60 C hotter than declared: the
+    reference's bearing scale (lateral, ~0.5) must not change the static axial load per degree
+    (before the bearing set left k_axial alone: +111 C for +60 C on the 2 s record)."""
+    r = _calibrate(records["temperature"], **reference.calibrator_kwargs())
+    assert r.effects and r.effects[0].name == "temperature_offset", [
+        (e.label, e.parameters) for e in r.effects
+    ]
+    assert abs(r.effects[0].parameters["offset_c"] - 60.0) <= 0.25 * 60.0, r.effects[0].parameters
+
+
 def test_healthy_record_at_another_speed_and_temperature_claims_nothing_against_the_baseline(
     records, reference
 ) -> None:
