@@ -209,3 +209,27 @@ def test_readings_study_keeps_a_diverged_panel(monkeypatch) -> None:
     lines: list[str] = []
     _write_readings(lines.append, st)
     assert "run diverged at 13275 rpm" in "\n".join(lines)
+
+
+def test_summary_states_the_band_and_the_readings_range() -> None:
+    from gear_rotor_sim.analysis.reproduction_report import _readings_summary
+
+    def row(title: str, a: list[float], b: list[float]) -> dict:
+        return {
+            "title": title,
+            "bands_rpm": {"25C": a, "225C": b},
+            "edge_errors_rpm": {"25C": [a[0] - 13500, a[1] - 14700], "225C": [b[0] - 13000, b[1] - 14200]},
+        }
+
+    rd = {
+        "paper_rpm": {"25C": [13500.0, 14700.0], "225C": [13000.0, 14200.0]},
+        "readings": [
+            row("as published", [12775.0, 14700.0], [12600.0, 14150.0]),
+            row("total backlash", [14125.0, 14875.0], [15500.0, 15550.0]),
+        ],
+    }
+    text = _readings_summary(rd, [12792.0, 14642.0])
+    assert "12792-14642 rpm, edge errors -708 / -58 rpm" in text and "(not within +-700 rpm)" in text
+    assert "between 12775 and 14125 rpm" in text
+    assert "within +-700 rpm: total backlash; none puts all three panels there" in text
+    assert "(within +-700 rpm)." in _readings_summary(rd, [12800.0, 14642.0])
