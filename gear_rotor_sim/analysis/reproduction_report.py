@@ -405,8 +405,10 @@ def _write_edge_sensitivity(add: Callable[[str], None], es: dict[str, Any]) -> N
     add("### The 25 C band against the parameters the paper does not give")
     add("")
     add(
-        "Not readings of the text (the paper gives no value for any of them): each row changes one "
-        "parameter of the as-published configuration (`gear_rotor_sim/analysis/readings.py`, "
+        "Not readings of the text: each row changes, on its own, one parameter the paper does not give "
+        'or one modelling detail it leaves open (a row that names "the paper: ..." departs from the text '
+        "and is shown for the size of the effect) in the as-published configuration "
+        "(`gear_rotor_sim/analysis/readings.py`, "
         f"`edge_sensitivity`), 25 C swept upwards over {es['window_rpm'][0]:.0f}-{es['window_rpm'][1]:.0f} "
         f"rpm on a {es['step_rpm']:g} rpm grid in one continuation, windows closer than {es['gap_rpm']:g} "
         f"rpm joined; {es['wall_time_s']:.0f} s for the table. None of these is adopted."
