@@ -196,6 +196,19 @@ def process_age_s() -> float | None:
         return None
 
 
+def name_os_thread(name: str) -> None:
+    """Name the calling thread in the operating system (Linux ``prctl(PR_SET_NAME)``, at most 15
+    bytes: ``top -H``, ``/proc/<pid>/task/<tid>/comm``, ``benchmarks/bench_node.py``); a no-op where
+    that is not available."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(15, ctypes.c_char_p(name.encode("ascii")[:15]), 0, 0, 0)  # 15: PR_SET_NAME
+    except (OSError, AttributeError, ValueError):
+        pass
+
+
 #: Interpreter-lock switch interval of the node process (Python's default is 5 ms).
 GIL_SWITCH_INTERVAL_S = 2e-4
 
@@ -582,6 +595,7 @@ class SimulatorNode(Node):
         }
 
     def _run(self) -> None:
+        name_os_thread("gear_rotor_step")
         try:
             self._loop()
         except Exception as exc:  # reported on /diagnostics and in the log; the node stays up
@@ -611,6 +625,7 @@ class SimulatorNode(Node):
             writer.join()
 
     def _output_loop(self, out_q: queue.Queue) -> None:
+        name_os_thread("gear_rotor_out")
         sequence = {s.name: 0 for s in self._streams}
         clock = Clock()
         while True:
