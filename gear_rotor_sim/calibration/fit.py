@@ -51,6 +51,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
+from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_window import model_window_samples
@@ -793,6 +794,12 @@ class Calibrator:
         """Bearing defects must improve their own characteristic envelope lines significantly; a damaged
         tooth its own wheel's order comb."""
         e = fit.effect
+        if isinstance(e, ToothWear | GearMisalignment):
+            # mesh-periodic effects: evidence on the orders and channel means (candidates_wear.py)
+            key = ("periodic", e.label, id(cur))
+            if key not in self._sig_checked:
+                self._sig_checked[key] = periodic_signature_present(self, fit, cur)
+            return self._sig_checked[key]
         if isinstance(e, ToothDamage):
             key = ("tooth", e.label, id(cur))
             if key not in self._sig_checked:
