@@ -209,3 +209,70 @@ def test_readings_study_keeps_a_diverged_panel(monkeypatch) -> None:
     lines: list[str] = []
     _write_readings(lines.append, st)
     assert "run diverged at 13275 rpm" in "\n".join(lines)
+
+
+def test_summary_states_the_band_and_the_readings_range() -> None:
+    from gear_rotor_sim.analysis.reproduction_report import _readings_summary
+
+    def row(title: str, a: list[float], b: list[float]) -> dict:
+        return {
+            "title": title,
+            "bands_rpm": {"25C": a, "225C": b},
+            "edge_errors_rpm": {"25C": [a[0] - 13500, a[1] - 14700], "225C": [b[0] - 13000, b[1] - 14200]},
+        }
+
+    rd = {
+        "paper_rpm": {"25C": [13500.0, 14700.0], "225C": [13000.0, 14200.0]},
+        "readings": [
+            row("as published", [12775.0, 14700.0], [12600.0, 14150.0]),
+            row("total backlash", [14125.0, 14875.0], [15500.0, 15550.0]),
+        ],
+    }
+    text = _readings_summary(rd, [12792.0, 14642.0])
+    assert "12792-14642 rpm, edge errors -708 / -58 rpm" in text and "(not within +-700 rpm)" in text
+    assert "between 12775 and 14125 rpm" in text
+    assert "within +-700 rpm: total backlash; none puts all three panels there" in text
+    assert "(within +-700 rpm)." in _readings_summary(rd, [12800.0, 14642.0])
+
+
+def test_config_overrides_change_only_their_field() -> None:
+    import dataclasses
+
+    import pytest
+
+    from gear_rotor_sim.analysis.bifurcation import Case
+    from gear_rotor_sim.system import mesh_forces, static_solution
+
+    base_case = reading_case(_reading("as_published"), "25C")
+    base = build_config(base_case)
+
+    def with_(*ov: tuple[str, float]):
+        return build_config(dataclasses.replace(base_case, overrides=ov))
+
+    assert with_(("reference_temperature_c", 20.0)).replace(reference_temperature_c=25.0) == base
+    assert with_(("shear_coefficient", 1.0)).shear_coefficient == 1.0
+    moved = with_(("load_node", 14.0))
+    assert moved.load.node0 == 13 and moved.load.torque_nm == base.load.torque_nm
+    assert moved.replace(load=base.load) == base
+    tilt = with_(("bearing_tilt_stiffness_scale", 2.0), ("bearing_tilt_damping", 0.0))
+    for a, b in zip(tilt.bearings, base.bearings, strict=True):
+        assert a.properties.k_tilt == 2.0 * b.properties.k_tilt and a.properties.c_tilt == 0.0
+        assert (
+            dataclasses.replace(a.properties, k_tilt=b.properties.k_tilt, c_tilt=b.properties.c_tilt)
+            == b.properties
+        )
+    # the output torque reaches the mesh through the output shaft either way: the static mesh force
+    # is T2 / r_bg whether the torque acts on the shaft end (node 18) or on the gear (node 14)
+    s18 = build_system(base_case)
+    s14 = build_system(dataclasses.replace(base_case, overrides=(("load_node", 14.0),)))
+    f18 = mesh_forces(s18, static_solution(s18))[0]
+    f14 = mesh_forces(s14, static_solution(s14))[0]
+    assert abs(f14 / f18 - 1.0) <= 1e-9
+    for ov, msg in (
+        (("load_node", 19.0), r"load_node: 19.0 must be a node number 1..18"),
+        (("shear_coefficient", 0.0), r"shear_coefficient: 0.0 must be within \(0, 2\]"),
+        (("bearing_tilt_stiffness_scale", -1.0), r"bearing_tilt_stiffness_scale: -1.0 must be finite"),
+        (("bearing_tilt_damping", -1.0), r"bearing_tilt_damping: -1.0 must be finite and >= 0"),
+    ):
+        with pytest.raises(ValueError, match=msg):
+            build_config(Case(25.0, overrides=(ov,)))

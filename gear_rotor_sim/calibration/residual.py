@@ -41,6 +41,8 @@ from scipy import signal as _sig
 from gear_rotor_sim.analysis.signals import amplitude_spectrum, analytic_band, resample_to_angle
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
+from gear_rotor_sim.calibration.model_settle import run_settled, whole_period_samples
+from gear_rotor_sim.calibration.model_window import hunting_period_s
 
 FAMILIES = ("order", "envelope", "static")
 
@@ -153,6 +155,7 @@ class ModelRunner:
     sensors: dict[str, HousingSensor] = field(default_factory=dict)
     n_runs: int = 0
     n_model: int = 0
+    n_moved: int = 0  # runs whose window was moved on past a step-rule switch (model_settle.py)
 
     def __post_init__(self) -> None:
         cfg = self.cfg
@@ -216,14 +219,18 @@ class ModelRunner:
         )
         i0 = round(self.start_time * self.sample_rate_hz)
         n = self.n_model
-        block = sim.advance((i0 + n) / self.sample_rate_hz + 0.5 / self.sample_rate_hz)
-        data = np.ascontiguousarray(block.data[i0 : i0 + n])
+        # the window holds no switch of the simulator's step rule (a start-up separation would put the
+        # rule's contact-loss setting into it: model_settle.py); else it moves on by hunting periods
+        period = whole_period_samples(hunting_period_s(self.cfg, speed), self.sample_rate_hz)
+        run = run_settled(sim, i0, n, self.sample_rate_hz, period)
+        data = run.data
         if data.shape[0] != n:
             raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n}")
         add_direct_bearing_forces(
-            data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, i0
+            data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, run.first_index
         )
         self.n_runs += 1
+        self.n_moved += run.shifts > 0
         _CACHE[key] = data
         if len(_CACHE) > _CACHE_MAX:
             _CACHE.popitem(last=False)
