@@ -848,7 +848,12 @@ class Calibrator:
 
         The floor is the median of the measured bins within +-25 % of the line frequency where the
         fitted candidate itself predicts no line (its sidebands and shaft-rate lines excluded), the
-        line's own +-3 % excluded.
+        line's own +-3 % excluded. Where fewer than 3 such bins are left (an inner race's shaft-rate
+        sidebands with a broad transfer), the floor is taken at the half of the bins (at least 3)
+        where it predicts the least, no longer at all the bins: with the sidebands
+        in the floor the BPFI line of the independent 3000 rpm inner-race record read 1.5-2.9 x the
+        floor against the held 2000 rpm baseline and 6.5 x without it (same measured spectrum, only
+        the predicted sidebands' level decided which bins were the floor).
         """
         f = self.cmp.env_f
         best = 0.0
@@ -861,8 +866,11 @@ class Calibrator:
                 if not fl > 0:  # channel left out of the envelope features
                     continue
                 neigh = near & (pm < 0.5 * fl)
-                if neigh.sum() < 3:
-                    neigh = near
+                idx = np.flatnonzero(near)
+                if neigh.sum() < 3 and idx.size >= 3:
+                    # the half of the bins (at least 3) where the candidate predicts the least
+                    neigh = np.zeros_like(near)
+                    neigh[idx[np.argsort(pm[idx], kind="stable")[: max(3, (idx.size + 1) // 2)]]] = True
                 if neigh.sum() < 3:
                     continue
                 floor = float(np.median(d[neigh]))
