@@ -27,7 +27,7 @@ import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
 from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
-from gear_rotor_sim.solver.decimate import StreamDecimator
+from gear_rotor_sim.solver.decimate import DeferredDecimator
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
     check_contact_loss_rate,
@@ -157,6 +157,31 @@ def _default_builder(cfg: Any, temperature_c: float) -> AssembledSystem:
     from gear_rotor_sim.system import GearRotorSystem  # assembly module (physics core)
 
     return GearRotorSystem.from_config(cfg, temperature_c)
+
+
+class PendingBlock:
+    """A block integrated by :meth:`Simulator.advance_deferred` whose samples are not filtered yet.
+
+    ``first_index``, ``n_samples`` and ``t0`` are known at once; :meth:`result` runs the decimation
+    (once; later calls return the same block).
+    """
+
+    __slots__ = ("_block", "_sim", "first_index", "n_samples", "t0")
+
+    def __init__(self, sim: Simulator, first_index: int, n_samples: int) -> None:
+        self._sim: Simulator | None = sim
+        self.first_index = first_index
+        self.n_samples = n_samples
+        self.t0 = first_index / sim.output_rate_hz
+        self._block: SampleBlock | None = None
+
+    def result(self) -> SampleBlock:
+        """The :class:`SampleBlock` (what :meth:`Simulator.advance` returns)."""
+        if self._block is None:
+            assert self._sim is not None
+            self._block = self._sim._output_block(self.first_index, self.n_samples)
+            self._sim = None
+        return self._block
 
 
 class Simulator:
@@ -318,7 +343,7 @@ class Simulator:
         self._omega_q = -1.0
         self._activate(stepper, self._state, speed_rpm)
         init = np.concatenate([stepper.initial_outputs(self._state), [speed_rpm, temperature_c]])
-        self._dec = StreamDecimator(self._k, init)
+        self._dec = DeferredDecimator(self._k, init)
         self._n_out = 0
         self.last_chunk_stats: dict[str, float] = {}
 
@@ -610,39 +635,49 @@ class Simulator:
 
     def advance(self, duration: float) -> SampleBlock:
         """Integrate and return the output samples with times in [time_s, time_s + duration)."""
+        return self.advance_deferred(duration).result()
+
+    def advance_deferred(self, duration: float) -> PendingBlock:
+        """:meth:`advance` with the output filtering left to whoever calls ``result()``.
+
+        Integrates now (the simulator is at ``time_s + duration`` on return) and returns a
+        :class:`PendingBlock` that knows the block's first sample index and length; its ``result()``
+        runs the anti-aliasing decimation of the raw samples and returns the :class:`SampleBlock`
+        that :meth:`advance` would have returned, bit for bit. Pending blocks must be resolved in the
+        order they were made (a ValueError otherwise); ``result()`` may run in another thread,
+        concurrently with the next ``advance_deferred`` (the simulator node does so: the FIR then runs
+        on the other core while the next chunk is integrated). ``last_chunk_stats["wall_s"]`` counts
+        the integration only.
+        """
         if not (np.isfinite(duration) and duration >= 0):
             raise ValueError(f"duration: {duration!r} must be finite and >= 0")
         wall0 = time.perf_counter()
         n_target = int(np.ceil((self.time_s + duration) * self.output_rate_hz - 1e-9))
         n_emit = n_target - self._n_out
-        blocks: list[np.ndarray] = []
         got = 0
         steps = n_loss = n_back = 0
-        while got < n_emit:
-            need_raw = (n_target - 1) * 1.0 / self.output_rate_hz  # last output time
-            dt = self.dt
-            t_raw = self._raw_time
-            n_steps = int(np.ceil((need_raw - t_raw) / dt - 1e-9)) + self._dec.delay
-            n_steps = max(n_steps, 1)
-            n_steps = self._limit_chunk(n_steps, t_raw, dt)
-            y, loss, back = self._run_steps(n_steps)
-            steps += n_steps
-            n_loss += loss
-            n_back += back
-            if y.shape[0]:
-                take = min(y.shape[0], n_emit - got)
-                blocks.append(y[:take])
-                got += take
-                if take < y.shape[0]:
-                    self._pending = y[take:]
-            self._maybe_regrid()
-        if len(blocks) == 1:  # the usual case: no concatenation copy (the block below copies out)
-            data = blocks[0]
-        else:
-            data = np.concatenate(blocks) if blocks else np.zeros((0, len(self.channels) + 2))
+        try:
+            while got < n_emit:
+                need_raw = (n_target - 1) * 1.0 / self.output_rate_hz  # last output time
+                dt = self.dt
+                t_raw = self._raw_time
+                n_steps = int(np.ceil((need_raw - t_raw) / dt - 1e-9)) + self._dec.delay
+                n_steps = max(n_steps, 1)
+                n_steps = self._limit_chunk(n_steps, t_raw, dt)
+                n_y, loss, back = self._run_steps(n_steps)
+                steps += n_steps
+                n_loss += loss
+                n_back += back
+                if n_y:
+                    take = min(n_y, n_emit - got)
+                    got += take
+                    self._pending_n = n_y - take
+                self._maybe_regrid()
+        except BaseException:
+            self._pending_n += got  # completed outputs stay queued for the next block, in order
+            raise
         first = self._n_out
-        self._n_out += data.shape[0]
-        nch = len(self.channels)
+        self._n_out += got
         self.last_chunk_stats = {
             "contact_loss_fraction": n_loss / max(steps, 1),
             "back_contact_fraction": n_back / max(steps, 1),
@@ -655,6 +690,12 @@ class Simulator:
             "contact_loss_rule": float(self._loss_mode),
             "mesh_solve_failures": float(self._stepper.n_mesh_fail),
         }
+        return PendingBlock(self, first, got)
+
+    def _output_block(self, first: int, n: int) -> SampleBlock:
+        """The decimated samples ``first .. first + n - 1`` as a block (see :class:`PendingBlock`)."""
+        data = self._dec.take(n, first)
+        nch = len(self.channels)
         return SampleBlock(
             first / self.output_rate_hz,
             self.output_rate_hz,
@@ -667,7 +708,7 @@ class Simulator:
         )
 
     # ------------------------------------------------------------------------------- internals
-    _pending: np.ndarray | None = None
+    _pending_n: int = 0  # outputs completed by the last raw chunk beyond what its block took
 
     def _limit_chunk(self, n_steps: int, t_raw: float, dt: float) -> int:
         n = min(n_steps, _MAX_CHUNK_STEPS)
@@ -704,12 +745,9 @@ class Simulator:
             end = min(end, (nxt - self._seg_out0) * k)
         return end - self._raw
 
-    def _run_steps(self, n: int) -> tuple[np.ndarray, int, int]:
-        if self._pending is not None:
-            y0 = self._pending
-            self._pending = None
-        else:
-            y0 = None
+    def _run_steps(self, n: int) -> tuple[int, int, int]:
+        """Integrate ``n`` raw steps; return the outputs now complete (with those left over from the
+        previous call), the steps with contact loss and those with back-side contact."""
         t_raw = self._raw_time
         # operating point at the chunk start (quantised)
         s_now = float(self._speed.value(t_raw))
@@ -745,14 +783,13 @@ class Simulator:
         self._raw += n
         self._update_dt_rule(states)
         # the channels, speed and temperature go side by side straight into the decimator's store
-        y = self._dec.push(ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp)
-        if y0 is not None:
-            y = np.concatenate([y0, y])
+        n_y = self._dec.push(ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp) + self._pending_n
+        self._pending_n = 0
         loss = back = 0
         if states.shape[1]:
             loss = int(np.count_nonzero((states == 0).any(axis=1)))  # any mesh
             back = int(np.count_nonzero((states < 0).any(axis=1)))
-        return y, loss, back
+        return n_y, loss, back
 
     def _update_dt_rule(self, states: np.ndarray) -> None:
         """Contact-loss setting at the window ends: on after a separation, off after none."""

@@ -81,7 +81,7 @@ def chunk_fields(block: SampleBlock, spec: StreamSpec, sequence: int) -> dict:
     ``channel_names``, ``units``, ``layout_dim`` (list of (label, size, stride)), ``data``
     (C-contiguous float64, row-major sample x channel, flattened).
     """
-    sub = block.select(spec.channels)
+    sub = block if block.channels == tuple(spec.channels) else block.select(spec.channels)
     sec, nsec = time_to_stamp(block.t0)
     n, c = sub.data.shape
     return {

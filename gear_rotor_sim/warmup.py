@@ -91,6 +91,25 @@ def is_current() -> bool:
         return False
 
 
+def kernel_compile_counts() -> tuple[int, int]:
+    """Numba signatures of the package's cached kernels (``@njit(cache=True)``) loaded from the cache
+    and compiled, so far in this process (the node logs them with its start-up time: a start after
+    the warm-up compiles nothing)."""
+    from numba.core.registry import CPUDispatcher
+
+    seen: set[int] = set()
+    loaded = compiled = 0
+    for name, module in list(sys.modules.items()):
+        if module is None or not (name == "gear_rotor_sim" or name.startswith("gear_rotor_sim.")):
+            continue
+        for obj in list(vars(module).values()):
+            if isinstance(obj, CPUDispatcher) and id(obj) not in seen:
+                seen.add(id(obj))
+                loaded += sum(obj.stats.cache_hits.values())
+                compiled += sum(obj.stats.cache_misses.values())
+    return loaded, compiled
+
+
 def warm_up(verbose: bool = True) -> float:
     """Run the simulator briefly along every path the node uses; return the wall time, s.
 

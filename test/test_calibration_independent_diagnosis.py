@@ -8,8 +8,8 @@ within the test budget): healthy records claim no effect (baseline updates allow
 tooth on the GEAR wheel is named first with wheel and tooth; a temperature offset is named with its
 value within 25 %; the same diagnosis holds with ``--baseline`` (a healthy record at another speed).
 
-Also: the edge-loaded stiffness factor of ``gear_misalignment`` against a direct integration of a
-tilted line contact on a Winkler foundation.
+Also: the tilted contact of ``gear_misalignment`` (tangent stiffness and centre-approach offset)
+against a direct integration of a line contact tilted about the middle of a Winkler face.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from scipy.optimize import brentq
 from gear_rotor_sim.calibration.baseline import fit_reference_baseline
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
-from gear_rotor_sim.faults import edge_loaded_stiffness_factor
+from gear_rotor_sim.faults import tilted_contact_offset, tilted_contact_stiffness_factor
 
 DURATION_S = 0.6  # 30 input revolutions, 18 of the gear at 3000 rpm
 
@@ -133,6 +133,17 @@ def test_diagnosis_against_a_healthy_baseline_at_another_speed(records, referenc
     ]
 
 
+def test_temperature_offset_against_a_healthy_baseline_at_another_speed(records, reference) -> None:
+    """The 2000 rpm / 25 C baseline held on a record running 60 C hotter than declared: the
+    reference's bearing scale (lateral, ~0.5) must not change the static axial load per degree
+    (before the bearing set left k_axial alone: +111 C for +60 C on the 2 s record)."""
+    r = _calibrate(records["temperature"], **reference.calibrator_kwargs())
+    assert r.effects and r.effects[0].name == "temperature_offset", [
+        (e.label, e.parameters) for e in r.effects
+    ]
+    assert abs(r.effects[0].parameters["offset_c"] - 60.0) <= 0.25 * 60.0, r.effects[0].parameters
+
+
 def test_healthy_record_at_another_speed_and_temperature_claims_nothing_against_the_baseline(
     records, reference
 ) -> None:
@@ -142,20 +153,27 @@ def test_healthy_record_at_another_speed_and_temperature_claims_nothing_against_
     assert r.as_dict()["baseline"]["source"] == str(records["healthy_2000"])
 
 
-def test_edge_loaded_factor_matches_a_tilted_winkler_contact() -> None:
-    """Independent truth: integrate p(y) = k' max(delta - gamma y, 0) over the face, solve for the
-    loaded-edge approach delta at the force of the aligned approach delta0, compare F / (k delta)."""
+def test_tilted_contact_matches_a_winkler_face_tilted_about_its_middle() -> None:
+    """Independent truth: integrate p(y) = k' max(d + gamma y, 0) over the face (-b/2 <= y <= b/2),
+    solve for the centre approach d* at the force of the aligned approach delta0, and compare the
+    tangent stiffness dF/dd (central difference) and the offset d* - F0 / (dF/dd) with the closed
+    forms of ``gear_misalignment`` (full contact up to rho = gamma b / (2 delta0) = 1)."""
     b, kprime, delta0 = 0.02, 1e10, 5e-6
     force = kprime * b * delta0
-    y = np.linspace(0.0, b, 20001)
-    for rho in (0.0, 0.3, 1.0, 2.5, 8.0):
+    y = np.linspace(-0.5 * b, 0.5 * b, 40001)
+
+    def load(d: float, gamma: float) -> float:
+        p = kprime * np.maximum(d + gamma * y, 0.0)
+        return float(np.sum((p[1:] + p[:-1]) * 0.5 * np.diff(y)))
+
+    for rho in (0.0, 0.5, 1.0, 2.5, 8.0):
         gamma = 2.0 * rho * delta0 / b
-
-        def excess(d: float, gamma: float = gamma) -> float:
-            p = kprime * np.maximum(d - gamma * y, 0.0)
-            return float(np.sum((p[1:] + p[:-1]) * 0.5 * np.diff(y))) - force
-
-        d = brentq(excess, 1e-12, 1e-3, xtol=1e-15)
-        truth = force / (kprime * b * d)
-        got = float(edge_loaded_stiffness_factor(np.array([rho]))[0])
-        assert abs(got - truth) <= 1e-3 * truth, (rho, got, truth)
+        d = brentq(lambda x, g=gamma: load(x, g) - force, -1e-3, 1e-3, xtol=1e-16)
+        h = 1e-4 * delta0
+        tangent = (load(d + h, gamma) - load(d - h, gamma)) / (2.0 * h)
+        factor = tangent / (kprime * b)
+        offset = d - force / tangent
+        got_f = float(tilted_contact_stiffness_factor(np.array([rho]))[0])
+        got_e = delta0 * float(tilted_contact_offset(np.array([rho]))[0])
+        assert abs(got_f - factor) <= 2e-3 * factor, (rho, got_f, factor)
+        assert abs(got_e - offset) <= 2e-3 * delta0, (rho, got_e, offset)

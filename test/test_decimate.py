@@ -13,8 +13,10 @@ from roundoff import roundoff
 from scipy.signal import freqz, lfilter
 
 from gear_rotor_sim.solver.decimate import (
+    DeferredDecimator,
     StreamDecimator,
     design_taps,
+    filter_delay,
     fir_decimate,
     fir_decimate_polyphase,
 )
@@ -194,3 +196,50 @@ def test_regrid_and_rebase_keep_time_and_phase() -> None:
     assert np.max(np.abs(y[60:] - ref[60:])) < 2e-3
     # every output whose window is complete was emitted: the last one is ``delay`` raw samples back
     assert y.shape[0] - 1 == seg_t0 + (4000 - dec.delay) // 16
+
+
+def test_deferred_decimator_counts_at_once_and_takes_the_stream_outputs_later() -> None:
+    """DeferredDecimator: each push returns at once the number of outputs whose window it completes
+    (the StreamDecimator's output count for the same push, and ``filter_delay`` its group delay), and
+    outputs taken later, in arbitrary portions interleaved with further pushes, across a change of
+    the decimation factor and a rebase, are the StreamDecimator's, bit for bit."""
+    rng = np.random.default_rng(7)
+    init = rng.standard_normal(3)
+    ref = StreamDecimator(3, init)
+    dd = DeferredDecimator(3, init)
+    expected: list[np.ndarray] = []
+    got: list[np.ndarray] = []
+
+    def push(n: int) -> None:
+        x = rng.standard_normal((n, 3))
+        y = ref.push(x)
+        assert dd.push(x) == y.shape[0]
+        expected.append(y)
+
+    def take_some() -> None:
+        n = int(rng.integers(0, dd.produced - dd.taken + 1))
+        got.append(dd.take(n, first=dd.taken))
+
+    for n in (700, 1, 0, 1100, 901):
+        push(n)
+        take_some()
+    top = -(-ref.last_raw // 3) * 3
+    push(top - ref.last_raw)  # onto the output grid, then 3 -> 16
+    ref.regrid(16, top)
+    dd.regrid(16, top)
+    assert dd.delay == ref.delay == filter_delay(16) == (design_taps(16).size - 1) // 2
+    for n in (5000, 7001, 3999):
+        push(n)
+        take_some()
+    with pytest.raises(ValueError):
+        dd.rebase(5)
+    ref.rebase(ref.last_raw)
+    dd.rebase(dd.last_raw)
+    push(4000)
+    with pytest.raises(ValueError):  # blocks resolved out of order
+        dd.take(1, first=dd.taken + 1)
+    with pytest.raises(ValueError):  # more than completed
+        dd.take(dd.produced - dd.taken + 1)
+    got.append(dd.take(dd.produced - dd.taken))
+    assert np.array_equal(np.concatenate(got), np.concatenate(expected))
+    assert dd.take(0).shape == (0, 3)

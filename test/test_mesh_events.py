@@ -265,3 +265,9 @@ def test_default_dt_rule_keeps_the_rms_dte_within_half_a_percent(
     assert abs(got / ref - 1.0) < 0.005
     coarse, _ = rms(steps, contact_loss_rate_hz=None, locate_events=located)
     assert abs(coarse / ref - 1.0) > worse
+    if located:
+        # the exact modal map with the events located at the same coarse resolution (its sub-steps take
+        # the exact propagator, gear_kernel._event_step): within 0.5 % of the same reference
+        exact, res_x = rms(steps, contact_loss_rate_hz=None, locate_events=True, exact_modal_map=True)
+        assert res_x.located and res_x.steps_per_mesh == steps
+        assert abs(exact / ref - 1.0) < 0.005

@@ -6,6 +6,7 @@ decoder and the ``rosbags`` package; our own code never reads the files it check
 
 from __future__ import annotations
 
+import array
 import errno
 import json
 import os
@@ -151,12 +152,26 @@ def _padding_positions(f: dict) -> set[int]:
 
 
 def _rclpy_chunk(f: dict):
-    """The message the node publishes for these fields (built by the node's own ``fill_chunk``)."""
+    """The ``VibrationChunk`` of these fields built field by field with rclpy's message class (the
+    node publishes our CDR bytes of ``f``; this is what rclpy itself would serialise)."""
     from gear_rotor_msgs.msg import VibrationChunk
+    from std_msgs.msg import MultiArrayDimension
 
-    from gear_rotor_sim.ros.simulator_node import fill_chunk
-
-    return fill_chunk(VibrationChunk(), f)
+    msg = VibrationChunk()
+    msg.header.stamp.sec = int(f["stamp_sec"])
+    msg.header.stamp.nanosec = int(f["stamp_nanosec"])
+    msg.header.frame_id = f["frame_id"]
+    msg.sequence = f["sequence"]
+    msg.first_sample_index = f["first_sample_index"]
+    msg.sample_rate_hz = f["sample_rate_hz"]
+    msg.speed_rpm = f["speed_rpm"]
+    msg.temperature_c = f["temperature_c"]
+    msg.channel_names = f["channel_names"]
+    msg.units = f["units"]
+    msg.layout.dim = [MultiArrayDimension(label=a, size=b, stride=c) for a, b, c in f["layout_dim"]]
+    msg.layout.data_offset = 0
+    msg.data = array.array("d", f["data"].tobytes())
+    return msg
 
 
 @pytest.mark.ros

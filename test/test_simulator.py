@@ -33,6 +33,45 @@ def test_two_chunks_equal_one_run() -> None:
     assert np.max(np.abs(x - y) / (np.max(np.abs(y), axis=0) + 1e-300)) < 1e-12
 
 
+def test_deferred_blocks_resolved_in_another_thread_equal_advance() -> None:
+    """``advance_deferred`` with ``result()`` run in a second thread while the next chunk integrates
+    (what the node does) gives the blocks of ``advance``, bit for bit, through a speed ramp that
+    changes the decimation factor; index and length are known before the filtering; out-of-order
+    resolution is refused."""
+    import concurrent.futures
+
+    kw = dict(channels=["dte", "bearing1_fx"], speed_ramp_rpm_per_s=20000.0, system_builder=_builder())
+    a = Simulator(None, 2000.0, 25.0, 20000.0, **kw)
+    b = Simulator(None, 2000.0, 25.0, 20000.0, **kw)
+    durations = (0.02, 0.031, 0.0, 0.05, 0.05, 0.07, 0.05)
+    ref, factors = [], set()
+    for i, d in enumerate(durations):
+        if i == 2:
+            a.set_targets(speed_rpm=4000.0)
+        ref.append(a.advance(d))
+        factors.add(a.last_chunk_stats["decimation"])
+    futures, pendings = [], []
+    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
+        for i, d in enumerate(durations):
+            if i == 2:
+                b.set_targets(speed_rpm=4000.0)
+            p = b.advance_deferred(d)
+            assert (p.first_index, p.n_samples) == (ref[i].first_index, ref[i].n_samples)
+            pendings.append(p)
+            futures.append(pool.submit(p.result))
+        blocks = [f.result() for f in futures]
+    assert len(factors) > 1 and b.time_s == a.time_s  # the ramp changed the decimation factor
+    for x, y in zip(blocks, ref, strict=True):
+        assert x.t0 == y.t0 and x.channels == y.channels
+        assert np.array_equal(x.data, y.data)
+        assert np.array_equal(x.speed_rpm, y.speed_rpm) and np.array_equal(x.temperature_c, y.temperature_c)
+    assert pendings[0].result() is blocks[0]  # resolved once
+    late, early = b.advance_deferred(0.01), b.advance_deferred(0.01)
+    with pytest.raises(ValueError, match="next one is"):
+        early.result()
+    assert late.result().n_samples == early.result().n_samples == 200
+
+
 def test_speed_ramp_has_no_discontinuity() -> None:
     sim = Simulator(
         None,

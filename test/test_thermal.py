@@ -112,3 +112,22 @@ def test_zero_temperature_rise_gives_zero_load_and_room_stiffness() -> None:
     system = GearRotorSystem.from_config(single_rotor(0.16, 0.03, 8, bearing_type="A#"), 25.0)
     assert np.all(system.static_load == 0.0)
     assert np.all(system.thermal_load == 0.0)
+
+
+def test_bearing_baseline_set_leaves_the_thermal_axial_load_alone() -> None:
+    """The bearing baseline set (a lateral stiffness scale identified from the shaft-bearing modes)
+    must not move the calibration's thermometer: with it applied, the axial bearing force is still
+    the series-spring split with the NOMINAL axial stiffness (Table 5), while the radial stiffness is
+    scaled (issue 11: a lateral scale 0.522 carried to k_b read a +60 C offset as +111 C)."""
+    from gear_rotor_sim.faults import BearingStiffnessDamping
+
+    L, d, t = 0.14, 0.03, 125.0
+    cfg = BearingStiffnessDamping(0.522, 1.3).modify_config(single_rotor(L, d, 8, bearing_type="A#"))
+    system = GearRotorSystem.from_config(cfg, t)
+    q = static_solution(system)
+    k_b = 2.28e7  # Table 5, A#
+    k_s = E_TABLE1[t] * np.pi * d**2 / 4 / L
+    expected = k_s * A_EXP * (t - 25.0) * L / (1.0 + 2.0 * k_s / k_b)
+    assert k_b * q[system.dof(9, "z")] == pytest.approx(expected, rel=1e-9)
+    props = [b.properties for b in cfg.bearings]
+    assert all(p.k_axial == k_b and p.k_radial == pytest.approx(0.522 * 1.15e8, rel=1e-12) for p in props)

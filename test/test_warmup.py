@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -58,3 +60,22 @@ def test_if_changed_skips_a_current_cache(tree: Path, monkeypatch: pytest.Monkey
 def test_numba_cache_dir_mirrors_the_source_path(tree: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("NUMBA_CACHE_DIR", "/var/cache/nb")
     assert warmup.cache_dir() == Path("/var/cache/nb") / str(tree / "solver").lstrip(os.sep)
+
+
+def test_compile_counts_tell_a_cold_cache_from_a_warm_one(tmp_path: Path) -> None:
+    """``kernel_compile_counts``: a process with an empty numba cache compiles the kernel it calls,
+    the next process loads it (what the node's start-up line reports)."""
+    code = (
+        "import numpy as np\n"
+        "from gear_rotor_sim.solver import decimate\n"
+        "from gear_rotor_sim.warmup import kernel_compile_counts\n"
+        "decimate._scatter(np.zeros((2, 3, 1)), 0, np.zeros((2, 1)), np.zeros((0, 0)))\n"
+        "print(*kernel_compile_counts())\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    runs = [
+        subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+        for _ in range(2)
+    ]
+    assert all(r.returncode == 0 for r in runs), [r.stderr[-2000:] for r in runs]
+    assert [r.stdout.split() for r in runs] == [["0", "1"], ["1", "0"]]

@@ -44,12 +44,23 @@ MESH_OVERRIDES = (
     "damping_ratio",
     "half_backlash_m",
     "transmission_error_amplitude_m",
+    "transmission_error_phase_rad",
 )
 RAYLEIGH_OVERRIDES = ("mass_per_s", "stiffness_s")
 #: Overrides of the configuration's load: the output torque T2 (Table 3: 200 N m), N m.
 LOAD_OVERRIDES = ("load_torque_nm",)
 #: Overrides applied to the assembled system (not expressible in the configuration).
 SYSTEM_OVERRIDES = ("mesh_stiffness_scale",)
+#: Overrides of other configuration fields: the reference (stress-free) temperature, C; the Timoshenko
+#: shear coefficient; the node (1-based, Fig 5) of the output torque; a factor on every bearing's tilt
+#: stiffness; every bearing's tilt damping, N m s/rad.
+CONFIG_OVERRIDES = (
+    "reference_temperature_c",
+    "shear_coefficient",
+    "load_node",
+    "bearing_tilt_stiffness_scale",
+    "bearing_tilt_damping",
+)
 
 
 @dataclass(frozen=True)
@@ -66,10 +77,11 @@ class Case:
         Whether the backlash shrinks with temperature (Eq 27); ``False`` is the paper's Fig 6c.
     overrides : tuple of (str, float)
         Parameter changes for sensitivity studies: mesh fields (``friction_coefficient``,
-        ``damping_ratio``, ``half_backlash_m``, ``transmission_error_amplitude_m``), shaft
-        Rayleigh damping (``mass_per_s``, ``stiffness_s``), the output torque ``load_torque_nm`` and
+        ``damping_ratio``, ``half_backlash_m``, ``transmission_error_amplitude_m``,
+        ``transmission_error_phase_rad``), shaft
+        Rayleigh damping (``mass_per_s``, ``stiffness_s``), the output torque ``load_torque_nm``,
         ``mesh_stiffness_scale`` (multiplies the potential-energy mesh stiffness at every phase, see
-        :func:`scale_mesh_stiffness`).
+        :func:`scale_mesh_stiffness`) and the fields of :data:`CONFIG_OVERRIDES`.
     config : str
         Named paper configuration (:data:`gear_rotor_sim.examples.PAPER_CONFIGS`): ``"paper_sun2021"``
         (default) or ``"paper_sun2021_as_published"``.
@@ -114,7 +126,8 @@ def build_config(case: Case) -> Any:
     mesh_changes = {k: v for k, v in case.overrides if k in MESH_OVERRIDES}
     ray_changes = {k: v for k, v in case.overrides if k in RAYLEIGH_OVERRIDES}
     load_changes = {k: v for k, v in case.overrides if k in LOAD_OVERRIDES}
-    known = MESH_OVERRIDES + RAYLEIGH_OVERRIDES + SYSTEM_OVERRIDES + LOAD_OVERRIDES
+    cfg_changes = {k: v for k, v in case.overrides if k in CONFIG_OVERRIDES}
+    known = MESH_OVERRIDES + RAYLEIGH_OVERRIDES + SYSTEM_OVERRIDES + LOAD_OVERRIDES + CONFIG_OVERRIDES
     unknown = {k for k, _ in case.overrides} - set(known)
     if unknown:
         raise ValueError(f"overrides: {sorted(unknown)} not in {known}")
@@ -124,6 +137,40 @@ def build_config(case: Case) -> Any:
         cfg = cfg.replace(rayleigh_damping=dataclasses.replace(cfg.rayleigh_damping, **ray_changes))
     if load_changes and cfg.load is not None:
         cfg = cfg.replace(load=dataclasses.replace(cfg.load, torque_nm=float(load_changes["load_torque_nm"])))
+    if cfg_changes:
+        cfg = _apply_config_overrides(cfg, cfg_changes)
+    return cfg
+
+
+def _apply_config_overrides(cfg: Any, changes: dict[str, float]) -> Any:
+    """``cfg`` with the :data:`CONFIG_OVERRIDES` of ``changes`` applied (errors name the field)."""
+    if "reference_temperature_c" in changes:
+        cfg = cfg.replace(reference_temperature_c=float(changes["reference_temperature_c"]))
+    if "shear_coefficient" in changes:
+        mu = float(changes["shear_coefficient"])
+        if not (np.isfinite(mu) and 0.0 < mu <= 2.0):
+            raise ValueError(f"shear_coefficient: {mu!r} must be within (0, 2]")
+        cfg = cfg.replace(shear_coefficient=mu)
+    if "load_node" in changes and cfg.load is not None:
+        node = changes["load_node"]
+        n_nodes = sum(sh.n_nodes for sh in cfg.shafts)
+        if not (float(node).is_integer() and 1 <= node <= n_nodes):
+            raise ValueError(f"load_node: {node!r} must be a node number 1..{n_nodes}")
+        cfg = cfg.replace(load=dataclasses.replace(cfg.load, node0=int(node) - 1))
+    scale = float(changes.get("bearing_tilt_stiffness_scale", 1.0))
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise ValueError(f"bearing_tilt_stiffness_scale: {scale!r} must be finite and > 0")
+    tilt_c = changes.get("bearing_tilt_damping")
+    if tilt_c is not None and not (np.isfinite(tilt_c) and tilt_c >= 0.0):
+        raise ValueError(f"bearing_tilt_damping: {tilt_c!r} must be finite and >= 0 N m s/rad")
+    if scale != 1.0 or tilt_c is not None:
+        bearings = []
+        for b in cfg.bearings:
+            prop = dataclasses.replace(b.properties, k_tilt=b.properties.k_tilt * scale)
+            if tilt_c is not None:
+                prop = dataclasses.replace(prop, c_tilt=float(tilt_c))
+            bearings.append(dataclasses.replace(b, properties=prop))
+        cfg = cfg.replace(bearings=tuple(bearings))
     return cfg
 
 

@@ -20,6 +20,19 @@ Readings (the paper's words in quotes):
   half backlash of Eq 27 is 17.5 um.
 * ``torque_150``: the output torque the paper's Fig 7 implies: its cold bearing-2 force at 1000 rpm
   (1088 N) is the static share of a 150 N m torque, not of Table 3's 200 N m (docs/REPRODUCTION.md).
+* ``no_shaft_damping``: Eq 36 "M^e q'' + G^e q' + K^e q = F^e" has no damping matrix for the shaft
+  elements; the system damping C^s then holds only the bearings' (Eqs 37-38) and the mesh's (Eq 30).
+  The configurations add a shaft Rayleigh damping (beta = 1e-7 s) that the paper does not have.
+* ``fresh_start``: the paper states neither its initial conditions nor whether a speed starts from the
+  previous one; here every speed starts from the static equilibrium with the long first transient
+  (no continuation), the other common way to draw a bifurcation diagram.
+
+:func:`edge_sensitivity` complements the readings: the parameters the paper does not give at all
+(mesh damping ratio, friction coefficient, transmission-error phase, the mesh stiffness of Ref [35],
+the transient) and modelling details it leaves open (where the output torque acts, the shear
+coefficient, the units of the bearings' tilt terms, the stress-free temperature) are varied one at a
+time around the 25 C band to show which of them move its lower edge, and by how much. Those rows are
+not readings of the text and are never adopted.
 """
 
 from __future__ import annotations
@@ -53,6 +66,7 @@ class Reading:
     text: str
     overrides: tuple[tuple[str, float], ...] = ()
     downward: bool = False
+    fresh: bool = False
 
 
 READINGS: tuple[Reading, ...] = (
@@ -80,6 +94,20 @@ READINGS: tuple[Reading, ...] = (
         "the torque whose static share is the paper's cold Fig 7 bearing force (1088 N at 1000 rpm)",
         (("load_torque_nm", 150.0),),
     ),
+    Reading(
+        "no_shaft_damping",
+        "no shaft damping",
+        "Eq 36 \"M^e q'' + G^e q' + K^e q = F^e\" (no damping matrix for the shaft elements; C^s from "
+        "the bearings, Eqs 37-38, and the mesh, Eq 30)",
+        (("stiffness_s", 0.0),),
+    ),
+    Reading(
+        "fresh_start",
+        "every speed from the static equilibrium",
+        "the initial conditions of each speed are not stated (a bifurcation diagram is drawn either by "
+        "continuation or from the same start at every speed)",
+        fresh=True,
+    ),
 )
 
 #: Fine re-sweep windows per Fig 6 panel (rpm): the paper's band with at least 1500 rpm either side.
@@ -96,18 +124,28 @@ def reading_case(reading: Reading, panel: str) -> Case:
 
 
 def sweep(
-    case: Case, speeds_rpm: np.ndarray, settings: RunSettings, downward: bool = False
+    case: Case,
+    speeds_rpm: np.ndarray,
+    settings: RunSettings,
+    downward: bool = False,
+    fresh: bool = False,
 ) -> BifurcationResult:
     """One continuation segment over ``speeds_rpm`` (increasing, or decreasing when ``downward``);
-    the result is ordered by increasing speed either way."""
+    the result is ordered by increasing speed either way. ``fresh``: no continuation, every speed
+    starts from the static equilibrium with the first-speed transient (``first_transient_factor``)."""
     speeds = np.sort(np.asarray(speeds_rpm, dtype=float))
     order = speeds[::-1] if downward else speeds
     t0 = time.perf_counter()
-    out = run_segment(case, order, settings, BIFURCATION_CHANNELS, reduce_bifurcation)
+    if fresh:
+        parts = [run_segment(case, order[i : i + 1], settings, BIFURCATION_CHANNELS, reduce_bifurcation)
+                 for i in range(order.size)]  # fmt: skip
+        out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    else:
+        out = run_segment(case, order, settings, BIFURCATION_CHANNELS, reduce_bifurcation)
     if downward:
         out = {k: v[::-1] for k, v in out.items()}
     return BifurcationResult.from_arrays(
-        case, speeds, out, settings, time.perf_counter() - t0, {"downward": downward}
+        case, speeds, out, settings, time.perf_counter() - t0, {"downward": downward, "fresh": fresh}
     )
 
 
@@ -159,29 +197,45 @@ def readings_study(
     dict
         ``readings``: per reading ``key``, ``title``, ``text``, ``bands_rpm`` (panel -> [low, high]),
         ``edge_errors_rpm`` (panel -> [low - paper low, high - paper high]), ``windows_rpm`` (panel ->
-        fine chaotic windows), ``sequence_25c`` (label, low, high on the coarse grid); plus
+        fine chaotic windows), ``sequence_25c`` (label, low, high on the coarse grid),
+        ``diverged_rpm`` (panel or ``"25C_coarse"`` -> speed where a run left the physical range,
+        :class:`gear_rotor_sim.solver.newmark.SimulationDiverged`; such a panel has NaN bands); plus
         ``step_rpm``, ``gap_rpm``, ``fine_windows_rpm``, ``paper_rpm`` and ``wall_time_s``.
     """
     from gear_rotor_sim.analysis.reproduce import _condensed
+    from gear_rotor_sim.solver.newmark import SimulationDiverged
 
     t0 = time.perf_counter()
     rows = []
     edge: list[dict[str, Any]] = []
     for rd in readings:
-        bands, errors, windows = {}, {}, {}
+        bands, errors, windows, diverged = {}, {}, {}, {}
         for panel in panels:
             lo, hi = FINE_WINDOWS[panel]
             speeds = np.arange(lo, hi + step_rpm / 2, step_rpm)
-            res = sweep(reading_case(rd, panel), speeds, settings, rd.downward)
-            b = main_band_of(res, gap_rpm)
             plo, phi = PAPER_CHAOS[panel][0]
+            try:
+                res = sweep(reading_case(rd, panel), speeds, settings, rd.downward, rd.fresh)
+            except SimulationDiverged as exc:  # reported with its speed, not dropped
+                diverged[panel] = float(exc.speed_rpm)
+                bands[panel] = [float("nan")] * 2
+                errors[panel] = [float("nan")] * 2
+                windows[panel] = []
+                continue
+            b = main_band_of(res, gap_rpm)
             bands[panel] = [float(b[0]), float(b[1])]
             errors[panel] = [float(b[0] - plo), float(b[1] - phi)]
             windows[panel] = [[float(a), float(c)] for a, c in res.chaotic_windows(merge_gap=1)]
             if rd.key == readings[0].key and panel == "25C" and np.isfinite(b[0]):
                 edge = lower_edge_detail(res, b[0])
-        coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward)
-        sequence = _condensed(coarse.windows(), 3, coarse.speeds_rpm)
+        try:
+            coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward, rd.fresh)
+            sequence = [
+                [lab, float(a), float(c)] for lab, a, c in _condensed(coarse.windows(), 3, coarse.speeds_rpm)
+            ]
+        except SimulationDiverged as exc:
+            diverged["25C_coarse"] = float(exc.speed_rpm)
+            sequence = []
         rows.append(
             {
                 "key": rd.key,
@@ -190,7 +244,8 @@ def readings_study(
                 "bands_rpm": bands,
                 "edge_errors_rpm": errors,
                 "windows_rpm": windows,
-                "sequence_25c": [[lab, float(a), float(c)] for lab, a, c in sequence],
+                "sequence_25c": sequence,
+                "diverged_rpm": diverged,
             }
         )
     return {
@@ -200,5 +255,120 @@ def readings_study(
         "fine_windows_rpm": {k: list(v) for k, v in FINE_WINDOWS.items() if k in panels},
         "paper_rpm": {k: list(PAPER_CHAOS[k][0]) for k in panels},
         "lower_edge_25c": edge,
+        "wall_time_s": time.perf_counter() - t0,
+    }
+
+
+@dataclass(frozen=True)
+class Variation:
+    """One parameter the paper does not give, changed on its own (not a reading of the text)."""
+
+    key: str
+    title: str
+    overrides: tuple[tuple[str, float], ...] = ()
+    transient_factor: float = 1.0
+
+
+#: The unstated parameters varied around the as-published 25 C band (:func:`edge_sensitivity`).
+VARIATIONS: tuple[Variation, ...] = (
+    Variation("reference", "as published (zeta 0.07, mu 0.05, phi 0, k x 1)"),
+    Variation("zeta_0.05", "mesh damping ratio 0.05", (("damping_ratio", 0.05),)),
+    Variation("zeta_0.06", "mesh damping ratio 0.06", (("damping_ratio", 0.06),)),
+    Variation("zeta_0.08", "mesh damping ratio 0.08", (("damping_ratio", 0.08),)),
+    # c_m = 2 zeta sqrt(k m_e) with m_e from the assembled (doubled) gear inertias: 0.07 sqrt(2)
+    Variation(
+        "zeta_assembled",
+        "mesh damping ratio 0.07 of the assembled inertias (0.099)",
+        (("damping_ratio", 0.07 * float(np.sqrt(2.0))),),
+    ),
+    Variation("mu_0", "friction coefficient 0", (("friction_coefficient", 0.0),)),
+    Variation("mu_0.1", "friction coefficient 0.1", (("friction_coefficient", 0.1),)),
+    Variation(
+        "phi_pi_2", "transmission-error phase pi/2", (("transmission_error_phase_rad", float(np.pi / 2)),)
+    ),
+    Variation("k_0.98", "mesh stiffness x 0.98", (("mesh_stiffness_scale", 0.98),)),
+    Variation("k_1.02", "mesh stiffness x 1.02", (("mesh_stiffness_scale", 1.02),)),
+    Variation("transient_x2", "transient discarded x 2", transient_factor=2.0),
+    # modelling details the paper leaves open or states in a form that can be read two ways
+    Variation(
+        "load_at_gear",
+        "output torque on the gear's node 14 (Eq 32's theta_zg) instead of the shaft end, node 18",
+        (("load_node", 14.0),),
+    ),
+    Variation(
+        "shear_1",
+        "Timoshenko shear coefficient 1 (Eq 12's mu; Cowper's 0.89 used)",
+        (("shear_coefficient", 1.0),),
+    ),
+    Variation(
+        "tilt_per_degree",
+        "bearing tilt stiffness read per degree (Table 5 gives no unit; x 57.3)",
+        (("bearing_tilt_stiffness_scale", float(180.0 / np.pi)),),
+    ),
+    Variation(
+        "no_tilt_damping",
+        "no bearing tilt damping (Table 5 gives c_theta in N s/m, a translational unit)",
+        (("bearing_tilt_damping", 0.0),),
+    ),
+    Variation(
+        "reference_20c",
+        "stress-free temperature 20 C (the paper: 25 C, Sec 2.1 and Table 1)",
+        (("reference_temperature_c", 20.0),),
+    ),
+)
+
+
+def edge_sensitivity(
+    settings: RunSettings,
+    step_rpm: float = 25.0,
+    gap_rpm: float = 250.0,
+    variations: tuple[Variation, ...] = VARIATIONS,
+    window_rpm: tuple[float, float] = FINE_WINDOWS["25C"],
+) -> dict[str, Any]:
+    """The as-published 25 C main band with one unstated parameter changed at a time.
+
+    Each variation is swept upwards in one continuation segment over ``window_rpm`` on a
+    ``step_rpm`` grid; the band is :func:`main_band_of` (windows closer than ``gap_rpm`` joined). A
+    run that leaves the physical range (:class:`gear_rotor_sim.solver.newmark.SimulationDiverged`)
+    is reported with the speed where it did, not dropped.
+
+    Returns
+    -------
+    dict
+        ``rows``: per variation ``key``, ``title``, ``band_rpm`` [low, high] (NaN when none),
+        ``edge_errors_rpm`` against the paper's 13500-14700 rpm and ``diverged_rpm`` (None, or the
+        speed of the divergence); plus ``step_rpm``, ``gap_rpm``, ``window_rpm``, ``wall_time_s``.
+    """
+    from gear_rotor_sim.solver.newmark import SimulationDiverged
+
+    t0 = time.perf_counter()
+    base = READINGS[0]
+    plo, phi = PAPER_CHAOS["25C"][0]
+    speeds = np.arange(window_rpm[0], window_rpm[1] + step_rpm / 2, step_rpm)
+    rows = []
+    for v in variations:
+        case = dataclasses.replace(reading_case(base, "25C"), overrides=v.overrides)
+        st = dataclasses.replace(
+            settings, n_transient_periods=round(settings.n_transient_periods * v.transient_factor)
+        )
+        diverged = None
+        try:
+            b = main_band_of(sweep(case, speeds, st), gap_rpm)
+        except SimulationDiverged as exc:
+            b, diverged = (float("nan"), float("nan")), float(exc.speed_rpm)
+        rows.append(
+            {
+                "key": v.key,
+                "title": v.title,
+                "band_rpm": [float(b[0]), float(b[1])],
+                "edge_errors_rpm": [float(b[0] - plo), float(b[1] - phi)],
+                "diverged_rpm": diverged,
+            }
+        )
+    return {
+        "rows": rows,
+        "step_rpm": step_rpm,
+        "gap_rpm": gap_rpm,
+        "window_rpm": [float(window_rpm[0]), float(window_rpm[1])],
         "wall_time_s": time.perf_counter() - t0,
     }

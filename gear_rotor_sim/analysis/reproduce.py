@@ -508,10 +508,12 @@ def compute(
             panels["25C"], bif["25C"].chaotic_windows(merge_gap=1), plan.fig6
         )
         if config == PUBLISHED_CONFIG and plan.name != "tiny":
-            from gear_rotor_sim.analysis.readings import readings_study
+            from gear_rotor_sim.analysis.readings import edge_sensitivity, readings_study
 
-            # readings of the paper's text tried against the Fig 6 bands (docs/REPRODUCTION.md)
+            # readings of the paper's text tried against the Fig 6 bands (docs/REPRODUCTION.md), and
+            # the 25 C band against the parameters the paper does not give
             r["readings"] = readings_study(plan.fig6, np.array(plan.fig6_speeds))
+            r["edge_sensitivity"] = edge_sensitivity(plan.fig6)
     if plan.single_speed_figures:
         _single_speed_figures(fig_dir, plan)
 

@@ -336,6 +336,10 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         for k in panels:
             lo, hi = x["bands_rpm"][k]
             el, eh = x["edge_errors_rpm"][k]
+            div = x.get("diverged_rpm", {}).get(k)
+            if div is not None:
+                cells.append(f"run diverged at {div:.0f} rpm")
+                continue
             cells.append("none" if not np.isfinite(lo) else f"{lo:.0f}-{hi:.0f} ({el:+.0f} / {eh:+.0f})")
         add(_row(x["title"], x["text"], *cells))
     add("")
@@ -373,7 +377,8 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
     add("")
     for x in rd["readings"]:
         seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"])
-        add(f"- {x['title']}: {seq}.")
+        div = x.get("diverged_rpm", {}).get("25C_coarse")
+        add(f"- {x['title']}: {seq}." if div is None else f"- {x['title']}: run diverged at {div:.0f} rpm.")
     add("")
     edge = rd.get("lower_edge_25c") or []
     if edge:
@@ -392,6 +397,88 @@ def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
         add("")
     add(PAPER_25C_LOWER_EDGE_TEXT)
     add("")
+
+
+def _write_edge_sensitivity(add: Callable[[str], None], es: dict[str, Any]) -> None:
+    """Table of the as-published 25 C band with one unstated parameter changed at a time."""
+    rows = es["rows"]
+    add("### The 25 C band against the parameters the paper does not give")
+    add("")
+    add(
+        "Not readings of the text: each row changes, on its own, one parameter the paper does not give "
+        'or one modelling detail it leaves open (a row that names "the paper: ..." departs from the text '
+        "and is shown for the size of the effect) in the as-published configuration "
+        "(`gear_rotor_sim/analysis/readings.py`, "
+        f"`edge_sensitivity`), 25 C swept upwards over {es['window_rpm'][0]:.0f}-{es['window_rpm'][1]:.0f} "
+        f"rpm on a {es['step_rpm']:g} rpm grid in one continuation, windows closer than {es['gap_rpm']:g} "
+        f"rpm joined; {es['wall_time_s']:.0f} s for the table. None of these is adopted."
+    )
+    add("")
+    add("| variation | 25 C main band (rpm) | edge errors against 13500-14700 (rpm) | within +-700 |")
+    add("|---|---|---|---|")
+    for x in rows:
+        lo, hi = x["band_rpm"]
+        if x.get("diverged_rpm") is not None:
+            band, err, ok = f"run diverged at {x['diverged_rpm']:.0f} rpm", "-", "-"
+        elif not np.isfinite(lo):
+            band, err, ok = "no chaotic band", "-", "no"
+        else:
+            el, eh = x["edge_errors_rpm"]
+            band, err = f"{lo:.0f}-{hi:.0f}", f"{el:+.0f} / {eh:+.0f}"
+            ok = "yes" if _within(x["edge_errors_rpm"]) else "no"
+        add(_row(x["title"], band, err, ok))
+    add("")
+    ref = rows[0]["band_rpm"][0]
+    moved = [
+        f"{x['title']} ({x['band_rpm'][0] - ref:+.0f} rpm)"
+        for x in rows[1:]
+        if x.get("diverged_rpm") is None and np.isfinite(x["band_rpm"][0]) and x["band_rpm"][0] != ref
+    ]
+    same = [
+        x["title"]
+        for x in rows[1:]
+        if x.get("diverged_rpm") is None and np.isfinite(x["band_rpm"][0]) and x["band_rpm"][0] == ref
+    ]
+    add(
+        "Lower edge moved against the as-published row by: "
+        + ("; ".join(moved) if moved else "no variation")
+        + ". Lower edge unchanged (same grid speed) with: "
+        + (", ".join(same) if same else "no variation")
+        + "."
+    )
+    add("")
+
+
+def _readings_summary(rd: dict[str, Any], band: list[float]) -> str:
+    """What the readings study concludes for Fig 6a (issue 13's +-700 rpm goal), from its numbers."""
+    plo, phi = rd["paper_rpm"]["25C"]
+    panels = list(rd["paper_rpm"])
+    rows = rd["readings"]
+    lows = [(x["bands_rpm"]["25C"][0], x["title"]) for x in rows if np.isfinite(x["bands_rpm"]["25C"][0])]
+    all_in = [x["title"] for x in rows if all(_within(x["edge_errors_rpm"][k]) for k in panels)]
+    lo_min, lo_max = min(lows)[0], max(lows)[0]
+    inside_a = [x["title"] for x in rows if _within(x["edge_errors_rpm"]["25C"])]
+    text = (
+        f"Summary for Fig 6a. The as-published band resolved to 25 rpm is {band[0]:.0f}-{band[1]:.0f} "
+        f"rpm, edge errors {band[0] - plo:+.0f} / {band[1] - phi:+.0f} rpm against the paper's "
+        f"{plo:.0f}-{phi:.0f} rpm"
+        + (" (within +-700 rpm)." if _within([band[0] - plo, band[1] - phi]) else " (not within +-700 rpm).")
+        + f" Under the readings of the text the 25 C lower edge lies between {lo_min:.0f} and "
+        f"{lo_max:.0f} rpm; "
+        + (
+            f"readings that put Fig 6a within +-700 rpm: {', '.join(inside_a)}; "
+            if inside_a
+            else "no reading puts Fig 6a within +-700 rpm; "
+        )
+        + (
+            f"all three panels: {', '.join(all_in)}."
+            if all_in
+            else "none puts all three panels there, so none is adopted."
+        )
+        + " How the parameters the paper does not give move the lower edge is in the table above; "
+        "choosing one of them to place the edge would be a fit to the figure, not a reading of the paper."
+    )
+    return text
 
 
 def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out: Path) -> None:
@@ -490,6 +577,11 @@ def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out:
         add("")
     if p.get("readings"):
         _write_readings(add, p["readings"])
+    if p.get("edge_sensitivity"):
+        _write_edge_sensitivity(add, p["edge_sensitivity"])
+    if p.get("readings") and fine is not None and "band_rpm" in fine:
+        add(_readings_summary(p["readings"], fine["band_rpm"]))
+        add("")
     add("Motion sequence with increasing speed (as published; runs shorter than 3 grid points absorbed):")
     add("")
     for key in p["fig6"]:

@@ -50,6 +50,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
+from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
@@ -472,9 +474,12 @@ class Calibrator:
         return float(math.sqrt(2.0 * red / curv)) if curv > 0 else float("inf")
 
     # ---------------------------------------------------------------------------- candidates
-    def _fit_phase_amplitude(self, e: Effect, cur: ModelFeatures) -> CandidateFit | None:
+    def _fit_phase_amplitude(
+        self, e: Effect, cur: ModelFeatures, ref: float | None = None
+    ) -> CandidateFit | None:
+        """Amplitude and phase from two basis runs at amplitude ``ref`` (default a tenth of the bound)."""
         amp, ph = e.specs[0], e.specs[1]
-        ref = 0.1 * amp.upper
+        ref = 0.1 * amp.upper if ref is None else ref
         f0 = self._signature(e.with_parameters(**{amp.name: ref, ph.name: 0.0})).scaled(1.0 / ref)
         f1 = self._signature(e.with_parameters(**{amp.name: ref, ph.name: 0.5 * math.pi})).scaled(1.0 / ref)
         if self._is_zero(f0) and self._is_zero(f1):
@@ -703,18 +708,8 @@ class Calibrator:
             grid = [g for g in (4e-6, 10e-6, 25e-6, 60e-6) if g < up]
             return self._fit_grid_scalar(e, "wear_depth_m", grid, 0.0, cur, (0.0, up))
         if isinstance(e, GearMisalignment):
-            # |cos(theta + phi)| is not a cos/sin basis in phi: the phase on a 4-point grid
-            fits = [
-                self._fit_scalar_amplitude(
-                    e.with_parameters(phase_rad=ph), cur, None, "angle_rad", e.specs[0].upper
-                )
-                for ph in (-0.75 * math.pi, -0.25 * math.pi, 0.25 * math.pi, 0.75 * math.pi)
-            ]
-            fits = [f for f in fits if f is not None]
-            if not fits:
-                return None
-            best = min(fits, key=lambda f: f.score.balanced_chi2)
-            return dataclasses.replace(best, k=2)
+            # linear axial part for the phase, full simulations for the angle (candidates_misalignment.py)
+            return fit_gear_misalignment(self, e, cur)
         if isinstance(e, BearingDefect):
             return self._fit_scalar_amplitude(e, cur, None, "force_n", e.specs[0].upper)
         if isinstance(e, TemperatureOffset):
@@ -805,6 +800,12 @@ class Calibrator:
         """Bearing defects must improve their own characteristic envelope lines significantly; a damaged
         tooth its own wheel's order comb."""
         e = fit.effect
+        if isinstance(e, ToothWear | GearMisalignment):
+            # mesh-periodic effects: evidence on the orders and channel means (candidates_wear.py)
+            key = ("periodic", e.label, id(cur))
+            if key not in self._sig_checked:
+                self._sig_checked[key] = periodic_signature_present(self, fit, cur)
+            return self._sig_checked[key]
         if isinstance(e, ToothDamage):
             key = ("tooth", e.label, id(cur))
             if key not in self._sig_checked:

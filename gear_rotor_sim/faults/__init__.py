@@ -25,7 +25,8 @@ from gear_rotor_sim.faults.gear import (
     GearMisalignment,
     ToothDamage,
     ToothWear,
-    edge_loaded_stiffness_factor,
+    tilted_contact_offset,
+    tilted_contact_stiffness_factor,
     tooth_share,
     wear_profile,
 )
@@ -61,11 +62,12 @@ __all__ = [
     "ball_defect",
     "baseline_candidates",
     "candidate_effects",
-    "edge_loaded_stiffness_factor",
     "effect_name",
     "inner_race_defect",
     "load_zone",
     "outer_race_defect",
+    "tilted_contact_offset",
+    "tilted_contact_stiffness_factor",
     "tooth_share",
     "wear_profile",
 ]

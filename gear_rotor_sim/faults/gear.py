@@ -11,8 +11,9 @@
   that is zero at the pitch point and grows towards root and tip with the sliding distance (Archard
   wear; Flodin & Andersson 1997) adds ``h (|2 p - 1| - 1/2)`` to the transmission error over each
   mesh cycle (phase ``p``): odd mesh harmonics.
-* ``gear_misalignment``: tooth lines of one wheel tilted (wobbling) by an angle: edge-loaded, softer
-  mesh twice per revolution of that wheel, axial mesh-force component at its order 1.
+* ``gear_misalignment``: tooth lines of one wheel tilted (wobbling) about the middle of the face by
+  an angle: axial mesh-force component at its order 1; once the tilt exceeds what the mesh
+  deflection covers, an edge-loaded, softer mesh twice per revolution of that wheel.
 """
 
 from __future__ import annotations
@@ -227,20 +228,36 @@ class ToothWear(Effect):
         return cfg.replace(meshes=meshes)
 
 
-def edge_loaded_stiffness_factor(rho: np.ndarray) -> np.ndarray:
-    """Mesh stiffness factor of a tooth line tilted across the face, referenced to the loaded edge.
+def tilted_contact_stiffness_factor(rho: np.ndarray) -> np.ndarray:
+    """Tangent mesh stiffness factor of a tooth line tilted about the middle of the face.
 
-    With a tilt ``gamma`` the separation grows linearly across the face width ``b``; on a linear
-    (Winkler) tooth foundation carrying the force ``F`` (aligned approach ``delta0 = F / k``) the
-    approach at the loaded edge is ``delta0 (1 + rho)`` while the whole face is in contact and
-    ``2 delta0 sqrt(rho)`` once the contact has shrunk to the band ``(2 F / (k' gamma))^(1/2)``
-    (``k' = k / b``), where ``rho = gamma b / (2 delta0)`` is half the tilt separation over the
-    aligned approach. The secant stiffness is ``F`` over that approach: ``1 / (1 + rho)`` up to
-    ``rho = 1`` and ``1 / (2 sqrt(rho))`` beyond (continuous at 1/2). Edge loading of misaligned spur
-    gears in this sense: Velex & Maatar (1996), J Sound Vib 191(5); ISO 6336-1 K_Hbeta.
+    A wheel tilted on its shaft turns its tooth lines about its mid-plane: across the face width
+    ``b`` the separation from the mating flank is ``gamma y`` (``-b/2 <= y <= b/2``) on top of the
+    approach ``d`` at the face centre (the rigid-body approach the transmission error measures). On a
+    linear (Winkler) tooth foundation (``k' = k / b``) the mesh force is ``F = k d`` while the whole
+    face is in contact (``d >= G``, ``G = gamma b / 2``): the tilt changes nothing there. Below, only
+    the band ``y > -d/gamma`` towards the loaded edge carries load and ``F = k (d + G)^2 / (4 G)``
+    (``|d| < G``). At the static force ``F0 = k delta0`` the face stays in full contact up to
+    ``rho = G / delta0 = 1``; beyond, ``d* = delta0 (2 sqrt(rho) - rho)`` and the tangent stiffness
+    ``dF/dd = k (d* + G) / (2 G)`` is ``k / sqrt(rho)``. Returns ``min(1, 1 / sqrt(rho))``.
+    Edge loading of misaligned spur gears in this sense: Velex & Maatar (1996), J Sound Vib 191(5);
+    ISO 6336-1 K_Hbeta (the load concentrates at one edge once the mesh deflection no longer covers the
+    tilt).
     """
     rho = np.maximum(np.asarray(rho, dtype=float), 0.0)
-    return np.where(rho <= 1.0, 1.0 / (1.0 + rho), 0.5 / np.sqrt(np.maximum(rho, 1.0)))
+    return 1.0 / np.sqrt(np.maximum(rho, 1.0))
+
+
+def tilted_contact_offset(rho: np.ndarray) -> np.ndarray:
+    """Transmission-error offset of the linearised tilted contact, in units of ``delta0``.
+
+    With the tangent stiffness ``k s`` (:func:`tilted_contact_stiffness_factor`) the force law is
+    ``F = k s (d - e)`` about the static point: ``e = d* - delta0 / s = delta0 (sqrt(rho) - rho)`` for
+    ``rho > 1`` (the loaded edge carries the force with a smaller centre approach: negative), 0 in
+    full contact. Returns ``e / delta0``.
+    """
+    rho = np.maximum(np.asarray(rho, dtype=float), 1.0)
+    return np.sqrt(rho) - rho
 
 
 @dataclass(frozen=True)
@@ -248,12 +265,16 @@ class GearMisalignment(Effect):
     """Angular misalignment of a gear on its shaft: tooth lines tilted by ``angle_rad``.
 
     The wheel's tooth lines wobble relative to the mating wheel by ``gamma(t) = angle |cos(theta +
-    phi)|`` in the plane of action as it turns (``theta`` its shaft angle): the mesh is edge loaded
-    and softens (:func:`edge_loaded_stiffness_factor`, with the aligned approach ``delta0`` from the
-    static mesh force ``T / r_b`` of the output torque and the mean mesh stiffness), which modulates
-    the mesh at twice the wheel's shaft order; the tilted contact normal gives the mesh force an
-    axial component ``F0 angle cos(theta + phi)`` on both wheels (opposite), seen by the axial
-    bearing forces at the wheel's order 1 (quasi-static: the static mesh force ``F0``).
+    phi)|`` in the plane of action as it turns (``theta`` its shaft angle), about the middle of the
+    face (the wheel tilts about its mid-plane). While the mesh deflection covers the tilt across the
+    face (``rho = gamma b / (2 delta0) <= 1``, ``delta0`` the aligned approach from the static mesh
+    force ``T / r_b`` of the output torque and the mean mesh stiffness) nothing changes in the mesh;
+    beyond, the contact shrinks towards the loaded edge: a softer mesh
+    (:func:`tilted_contact_stiffness_factor`) with a smaller centre approach
+    (:func:`tilted_contact_offset`, a transmission-error offset), twice per revolution of the wheel.
+    The tilted contact normal gives the mesh force an axial component ``F0 angle cos(theta + phi)``
+    on both wheels (opposite), seen by the axial bearing forces at the wheel's order 1 (quasi-static:
+    the static mesh force ``F0``); for small tilts it is the only signature.
 
     Parameters
     ----------
@@ -313,13 +334,21 @@ class GearMisalignment(Effect):
         m = system.meshes[self.mesh - 1]
         return m.pinion_shaft if self.member == "pinion" else m.gear_shaft
 
-    def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
+    def _rho(self, ctx: Any) -> tuple[np.ndarray, float]:
+        """``rho(t) = gamma(t) b / (2 delta0)`` and ``delta0``."""
         m = ctx.system.meshes[self.mesh - 1]
         f0 = self._static_force(ctx.system)
         delta0 = f0 / float(m.mean_stiffness) if f0 > 0 else 1e-6
         gamma = self.angle_rad * np.abs(np.cos(ctx.shaft_angle[:, self._shaft(ctx.system)] + self.phase_rad))
-        rho = gamma * self.face_width_m / (2.0 * delta0)
-        return on_mesh(ctx, self.mesh, edge_loaded_stiffness_factor(rho), 1.0)
+        return gamma * self.face_width_m / (2.0 * delta0), delta0
+
+    def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
+        rho, _ = self._rho(ctx)
+        return on_mesh(ctx, self.mesh, tilted_contact_stiffness_factor(rho), 1.0)
+
+    def transmission_error(self, ctx: Any) -> np.ndarray | None:
+        rho, delta0 = self._rho(ctx)
+        return on_mesh(ctx, self.mesh, delta0 * tilted_contact_offset(rho), 0.0)
 
     def external_forces(self, system: Any) -> np.ndarray | None:
         m = system.meshes[self.mesh - 1]

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Iterable, Mapping, Sequence
+from functools import lru_cache
 
 import numpy as np
 
@@ -86,6 +87,10 @@ class CdrWriter:
             self._align(8)
             self._buf += memoryview(arr).cast("B")
 
+    def extend(self, raw: bytes) -> None:
+        """Append bytes serialised by another writer from an offset of the same alignment."""
+        self._buf += raw
+
     def bool_sequence(self, values: Sequence[bool] | np.ndarray) -> None:
         arr = np.asarray(values, dtype=bool).reshape(-1)
         self.uint32(arr.size)
@@ -125,17 +130,36 @@ def serialize_vibration_chunk(fields: Mapping) -> bytes:
     w.float64(fields["sample_rate_hz"])
     w.float64(fields["speed_rpm"])
     w.float64(fields["temperature_c"])
-    w.string_sequence(fields["channel_names"])
-    w.string_sequence(fields["units"])
-    dims = fields["layout_dim"]
+    # the last float64 leaves the offset on a multiple of 8: the names, units and layout that follow
+    # serialise to the same bytes in every message of a stream (cached)
+    w.extend(
+        _chunk_description(
+            tuple(fields["channel_names"]),
+            tuple(fields["units"]),
+            tuple((str(lab), int(size), int(stride)) for lab, size, stride in fields["layout_dim"]),
+            int(fields.get("layout_data_offset", 0)),
+        )
+    )
+    w.float64_sequence(fields["data"])
+    return w.getvalue()
+
+
+@lru_cache(maxsize=256)
+def _chunk_description(
+    names: tuple[str, ...], units: tuple[str, ...], dims: tuple[tuple[str, int, int], ...], data_offset: int
+) -> bytes:
+    """CDR bytes of ``channel_names``, ``units`` and ``layout`` of a ``VibrationChunk``, serialised
+    from an offset that is a multiple of 8 (where :func:`serialize_vibration_chunk` writes them)."""
+    w = CdrWriter()
+    w.string_sequence(names)
+    w.string_sequence(units)
     w.uint32(len(dims))
     for label, size, stride in dims:
         w.string(label)
         w.uint32(size)
         w.uint32(stride)
-    w.uint32(fields.get("layout_data_offset", 0))
-    w.float64_sequence(fields["data"])
-    return w.getvalue()
+    w.uint32(data_offset)
+    return w.getvalue()[len(ENCAPSULATION_HEADER) :]
 
 
 _CONDITION_ARRAYS = (

@@ -402,10 +402,17 @@ class McapRecorder:
         fields = chunk_fields(block, spec, sequence)
         data = serialize_vibration_chunk(fields)
         self.serialize_s += time.perf_counter() - t0
+        return self.write_chunk(spec, fields, data)
+
+    def write_chunk(self, spec: StreamSpec, fields: Mapping, data: bytes) -> int:
+        """Write one ``VibrationChunk`` serialised already: ``data`` =
+        :func:`~gear_rotor_sim.recording.cdr.serialize_vibration_chunk` of ``fields`` (the
+        :func:`~gear_rotor_sim.streams.chunk_fields` of the chunk), e.g. the bytes a node published.
+        Returns the size in bytes."""
         if spec.topic not in self._topics:
             self.add_topic(spec.topic, schemas.VIBRATION_CHUNK)
         stamp = fields["stamp_sec"] * 1_000_000_000 + fields["stamp_nanosec"]
-        self.write_serialized(spec.topic, schemas.VIBRATION_CHUNK, data, stamp, sequence=sequence)
+        self.write_serialized(spec.topic, schemas.VIBRATION_CHUNK, data, stamp, sequence=fields["sequence"])
         self.sample_count += int(fields["data"].size)
         return len(data)
 

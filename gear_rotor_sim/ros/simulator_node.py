@@ -2,7 +2,8 @@
 
 Threading (why setpoints are never starved): a dedicated *stepping thread* advances the simulator
 chunk by chunk and paces the chunks against the wall clock (``real_time_factor``); an *output
-thread* adds sensor noise, publishes the chunks and feeds the recorder, in order, while the next
+thread* runs the chunk's anti-aliasing decimation (``Simulator.advance_deferred``), adds sensor
+noise, publishes the chunks and feeds the recorder, in order, while the next
 chunk is integrated (a queue of two blocks between them: nothing is dropped; if publishing falls
 behind, the stepping thread waits). The main thread spins a single-threaded executor that serves
 everything else: setpoint subscriptions, parameter services and the diagnostics timer. Setpoint callbacks only
@@ -22,7 +23,6 @@ simulated time.
 
 from __future__ import annotations
 
-import array
 import collections
 import difflib
 import math
@@ -32,7 +32,7 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rclpy
@@ -53,9 +53,10 @@ from rclpy.qos import (
 )
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Float64, MultiArrayDimension
+from std_msgs.msg import Float64
 
 from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.recording.cdr import serialize_vibration_chunk
 from gear_rotor_sim.ros.node_faults import FAULTS_QOS, FAULTS_TOPIC, NodeFaults, fault_state_msg
 from gear_rotor_sim.ros.params import (
     NOISE_FIELDS,
@@ -69,6 +70,9 @@ from gear_rotor_sim.ros.params import (
     spec_by_name,
 )
 from gear_rotor_sim.streams import StreamSpec, chunk_fields, default_streams, time_to_stamp
+
+if TYPE_CHECKING:
+    from gear_rotor_sim.simulator import PendingBlock
 
 NODE_NAME = "gear_rotor_simulator"
 SPEED_SETPOINT_TOPIC = "/gear_rotor/setpoint/speed_rpm"
@@ -173,28 +177,6 @@ def _stat(stats: Any, *names: str, default: float = 0.0) -> float:
         if hasattr(stats, name):
             return float(getattr(stats, name))
     return default
-
-
-def fill_chunk(msg: VibrationChunk, fields: dict) -> VibrationChunk:
-    """Copy :func:`gear_rotor_sim.streams.chunk_fields` output into a ``VibrationChunk`` message."""
-    msg.header.stamp.sec = int(fields["stamp_sec"])
-    msg.header.stamp.nanosec = int(fields["stamp_nanosec"])
-    msg.header.frame_id = fields["frame_id"]
-    msg.sequence = fields["sequence"]
-    msg.first_sample_index = fields["first_sample_index"]
-    msg.sample_rate_hz = fields["sample_rate_hz"]
-    msg.speed_rpm = fields["speed_rpm"]
-    msg.temperature_c = fields["temperature_c"]
-    msg.channel_names = fields["channel_names"]
-    msg.units = fields["units"]
-    msg.layout.dim = [
-        MultiArrayDimension(label=lab, size=size, stride=stride) for lab, size, stride in fields["layout_dim"]
-    ]
-    msg.layout.data_offset = 0
-    data = array.array("d")
-    data.frombytes(fields["data"].tobytes())
-    msg.data = data
-    return msg
 
 
 #: Blocks the stepping thread may run ahead of the output thread (publishing and recording).
@@ -440,10 +422,10 @@ class SimulatorNode(Node):
         except (OSError, RuntimeError, ValueError) as exc:
             raise ParamError(f"foxglove_port: cannot serve on port {port}: {exc}") from exc
 
-    def _write_recording(self, sub: SampleBlock, spec: StreamSpec, seq: int) -> None:
-        """Record one chunk; a failing recording (disk full, ...) is stopped, streaming goes on."""
+    def _write_recording(self, spec: StreamSpec, fields: dict, data: bytes) -> None:
+        """Record one published chunk; a failing recording (disk full, ...) is stopped, streaming goes on."""
         try:
-            self._recorder.write_block(sub, spec, seq)
+            self._recorder.write_chunk(spec, fields, data)
         except Exception as exc:  # RecordingError, OSError: reported, streaming continues
             recorder, self._recorder = self._recorder, None
             self._recording_status = f"failed: {exc}"
@@ -611,8 +593,9 @@ class SimulatorNode(Node):
     def _loop(self) -> None:
         """Simulate chunk after chunk at the requested pace; hand each block to the output thread.
 
-        The output thread (noise, messages, publishing, recording) works on chunk i while this
-        thread integrates chunk i + 1 (the compiled kernel and the FIR release the GIL), through a
+        The output thread (decimation FIR, noise, messages, publishing, recording) works on chunk i
+        while this thread integrates chunk i + 1 (the compiled kernel and the FIR release the GIL,
+        so the two use both cores), through a
         queue of ``_OUTPUT_QUEUE`` blocks: when publishing cannot keep up the queue fills and this
         thread waits, so nothing is dropped and the achieved real-time factor shows it.
         """
@@ -634,9 +617,11 @@ class SimulatorNode(Node):
             item = out_q.get()
             if item is None:
                 return
-            block, t_end = item
+            pending, t_end = item
             try:
-                self._publish_block(block, t_end, sequence, clock)
+                # the decimation FIR runs here, on this thread, while the stepping thread integrates
+                # the next chunk (Simulator.advance_deferred)
+                self._publish_block(pending.result(), t_end, sequence, clock)
             except Exception as exc:  # reported; the stream goes on with the next block
                 self.get_logger().error(f"publishing failed: {type(exc).__name__}: {exc}")
 
@@ -685,12 +670,15 @@ class SimulatorNode(Node):
                     sub.temperature_c,
                 )
             seq = sequence[spec.name]
-            msg = fill_chunk(VibrationChunk(), chunk_fields(sub, spec, seq))
-            self._stream_pubs[spec.name].publish(msg)
+            # serialised once (the CDR bytes rclpy would produce, test/test_recording.py): the same
+            # bytes are published and recorded
+            fields = chunk_fields(sub, spec, seq)
+            data = serialize_vibration_chunk(fields)
+            self._stream_pubs[spec.name].publish(data)
             if self.startup_s is None:
                 self._log_startup()
             if self._recorder is not None:
-                self._write_recording(sub, spec, seq)
+                self._write_recording(spec, fields, data)
             sequence[spec.name] = seq + 1
             parts.append(sub)
         if self._live is not None:
@@ -726,11 +714,15 @@ class SimulatorNode(Node):
         self._live.publish_status(fields, t_end)
 
     def _log_startup(self) -> None:
+        from gear_rotor_sim.warmup import kernel_compile_counts
+
         self.startup_s = time.monotonic() - self._t_constructed
         age = process_age_s()
+        loaded, compiled = kernel_compile_counts()
         self.get_logger().info(
             f"start-up: first message {self.startup_s:.2f} s after the node constructor"
             + (f", {age:.2f} s after the process started" if age is not None else "")
+            + f"; numba kernels: {loaded} loaded from the cache, {compiled} compiled"
         )
 
     def _simulate(self, out_q: queue.Queue) -> None:
@@ -749,7 +741,7 @@ class SimulatorNode(Node):
             if self._reanchor:
                 self._reanchor = False
                 anchor_wall, anchor_sim = time.monotonic(), t_start
-            block: SampleBlock = self._sim.advance(chunk)
+            block = self._sim.advance_deferred(chunk)  # filtered by the output thread
             if expected_index is not None and block.first_index != expected_index:
                 raise RuntimeError(
                     f"simulator continuity broken: block starts at sample {block.first_index}, "
@@ -767,7 +759,7 @@ class SimulatorNode(Node):
             out_q.put((block, t_end))  # waits while the output thread is _OUTPUT_QUEUE blocks behind
             self._record_progress(block, t_end, late)
 
-    def _record_progress(self, block: SampleBlock, t_end: float, late: bool) -> None:
+    def _record_progress(self, block: PendingBlock, t_end: float, late: bool) -> None:
         stats = getattr(self._sim, "last_chunk_stats", None)
         st = self._state
         with st.lock:

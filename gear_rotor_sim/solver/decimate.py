@@ -18,6 +18,9 @@ interpolation (see docs/solver.md).
 
 from __future__ import annotations
 
+import collections
+import threading
+
 import numpy as np
 from numba import njit
 from scipy.interpolate import CubicSpline
@@ -34,15 +37,26 @@ _NO_EXTRA = np.zeros((0, 0))
 TILE_ELEMENTS = 2048
 
 
+def _kaiser_design(k: int) -> tuple[int, float]:
+    """Number of taps (``q k + 1``, ``q`` even) and Kaiser ``beta`` of :func:`design_taps` for ``k >= 2``."""
+    nyq = 0.5 * k  # raw Nyquist in units of the output rate
+    width = (STOPBAND_FRACTION - PASSBAND_FRACTION) / nyq
+    n_min, beta = kaiserord(STOPBAND_DB + 3.0, width)
+    q = 2 * int(np.ceil(n_min / (2.0 * k)))
+    return q * k + 1, float(beta)
+
+
+def filter_delay(k: int) -> int:
+    """Group delay of :func:`design_taps` ``(k)`` in raw samples, ``(N - 1) / 2`` (0 for ``k = 1``)."""
+    return 0 if k == 1 else (_kaiser_design(k)[0] - 1) // 2
+
+
 def design_taps(k: int) -> np.ndarray:
     """Low-pass taps for decimation by ``k`` (normalised to the raw rate); ``[1.0]`` for ``k = 1``."""
     if k == 1:
         return np.ones(1)
     nyq = 0.5 * k  # raw Nyquist in units of the output rate
-    width = (STOPBAND_FRACTION - PASSBAND_FRACTION) / nyq
-    n_min, beta = kaiserord(STOPBAND_DB + 3.0, width)
-    q = 2 * int(np.ceil(n_min / (2.0 * k)))
-    numtaps = q * k + 1
+    numtaps, beta = _kaiser_design(k)
     cutoff = 0.5 * (PASSBAND_FRACTION + STOPBAND_FRACTION) / nyq
     taps = firwin(numtaps, cutoff, window=("kaiser", beta))
     return 0.5 * (taps + taps[::-1])  # exactly symmetric (linear phase)
@@ -292,3 +306,109 @@ class StreamDecimator:
         self._last -= split_raw
         self.next_p -= split_raw
         self._blk0 -= split_raw // self.k
+
+
+class DeferredDecimator:
+    """A :class:`StreamDecimator` whose filtering runs later, in the thread that takes the outputs.
+
+    :meth:`push`, :meth:`regrid` and :meth:`rebase` only record the operation and advance the output
+    count (index arithmetic identical to :class:`StreamDecimator`'s), so the producer (the
+    simulator's integration) learns at once how many outputs each push completes; :meth:`take` runs
+    the recorded operations in order, in the calling thread, and returns the next outputs. The
+    outputs are those of a :class:`StreamDecimator` given the same operations, bit for bit. The
+    simulator node takes them in its output thread, so that the FIR runs on the other core while
+    the next chunk is integrated (docs/ros.md, "Timing, threads, real-time factor").
+
+    One producer thread calls :meth:`push`, :meth:`regrid`, :meth:`rebase`; one consumer at a time
+    calls :meth:`take` (serialised by a lock). The arrays given to :meth:`push` must not be changed
+    until their outputs are taken.
+
+    Parameters
+    ----------
+    k : int
+        Decimation factor.
+    initial : ndarray
+        (nch,) value of every channel at raw index 0 and (constant) before it.
+    """
+
+    def __init__(self, k: int, initial: np.ndarray) -> None:
+        self._dec = StreamDecimator(k, initial)
+        self.ncol = self._dec.ncol
+        self.k = self._dec.k
+        self.delay = self._dec.delay
+        self._last = self._dec.last_raw
+        self._next_p = self._dec.next_p
+        self._ops: collections.deque = collections.deque()
+        self._lock = threading.Lock()
+        self._ready: list[np.ndarray] = []  # outputs computed, not yet taken (consumer side)
+        self._n_ready = 0
+        self.produced = 0  # outputs completed by the recorded pushes
+        self.taken = 0  # outputs returned by take
+
+    @property
+    def last_raw(self) -> int:
+        return self._last
+
+    def push(self, *parts: np.ndarray | float) -> int:
+        """Record :meth:`StreamDecimator.push` of ``parts``; return the number of outputs it completes."""
+        if not parts or np.ndim(parts[0]) not in (1, 2):
+            raise ValueError("push: the first part must be an (n, m) or (n,) array")
+        n = int(np.shape(parts[0])[0])
+        self._ops.append(("push", parts))
+        self._last += n
+        last_ok = self._last - self.delay
+        if last_ok < self._next_p:
+            return 0
+        n_out = (last_ok - self._next_p) // self.k + 1
+        self._next_p += n_out * self.k
+        self.produced += n_out
+        return n_out
+
+    def regrid(self, new_k: int, split_raw: int) -> None:
+        """Record :meth:`StreamDecimator.regrid` (same arguments and checks)."""
+        if split_raw != self._last or split_raw % self.k:
+            raise ValueError("regrid: the split must be the last raw sample and on the output grid")
+        pending_first = (self._next_p - split_raw) / self.k
+        self._ops.append(("regrid", (int(new_k), int(split_raw))))
+        self._next_p = round(pending_first * new_k)
+        self._last = 0
+        self.k = int(new_k)
+        self.delay = filter_delay(self.k)
+
+    def rebase(self, split_raw: int) -> None:
+        """Record :meth:`StreamDecimator.rebase` (same argument and check)."""
+        if split_raw % self.k:
+            raise ValueError("rebase: the split must be on the output grid (a multiple of k)")
+        self._ops.append(("rebase", (int(split_raw),)))
+        self._last -= split_raw
+        self._next_p -= split_raw
+
+    def take(self, n: int, first: int | None = None) -> np.ndarray:
+        """Run the recorded operations as far as needed and return the next ``n`` outputs ``(n, ncol)``.
+
+        ``first``: the index (counted from the first output) the caller expects the outputs to start
+        at; a ValueError if they do not (blocks resolved out of order).
+        """
+        with self._lock:
+            if first is not None and first != self.taken:
+                raise ValueError(f"take: outputs from {first} requested, the next one is {self.taken}")
+            if n > self.produced - self.taken:
+                raise ValueError(f"take: {n} outputs requested, {self.produced - self.taken} completed")
+            while self._n_ready < n:
+                kind, args = self._ops.popleft()
+                if kind == "push":
+                    y = self._dec.push(*args)
+                    if y.shape[0]:
+                        self._ready.append(y)
+                        self._n_ready += y.shape[0]
+                elif kind == "regrid":
+                    self._dec.regrid(*args)
+                else:
+                    self._dec.rebase(*args)
+            if n == 0:
+                return np.zeros((0, self.ncol))
+            y = self._ready[0] if len(self._ready) == 1 else np.concatenate(self._ready)
+            self._ready = [y[n:]] if y.shape[0] > n else []
+            self._n_ready -= n
+            self.taken += n
+            return y[:n]
