@@ -276,3 +276,31 @@ def test_config_overrides_change_only_their_field() -> None:
     ):
         with pytest.raises(ValueError, match=msg):
             build_config(Case(25.0, overrides=(ov,)))
+
+
+def test_nonlinear_hertz_scale() -> None:
+    """The same Eq 13-14 combination with the linear k_h reproduces the model's table (built by another
+    path, SpurGearPair.mesh_stiffness_at); in single contact the pair carries T2 / r_bg and the
+    non-linear stiffness is the table's with the Hertz compliance swapped, in closed form."""
+    from gear_rotor_sim.analysis.readings import (
+        hertz_variation,
+        nonlinear_hertz_scale,
+        nonlinear_hertz_stiffness,
+    )
+    from gear_rotor_sim.config import load_config
+    from gear_rotor_sim.gears import paper_gear_pair
+
+    k_lin, table = nonlinear_hertz_stiffness(linear=True)
+    assert np.max(np.abs(k_lin / table - 1.0)) <= 1e-12
+    k_nl, table = nonlinear_hertz_stiffness()
+    pair = paper_gear_pair(load_config(PUBLISHED).materials["carbon_steel"])
+    single = pair.mesh_stiffness_table(25.0).n_pairs == 1
+    force = 200.0 / pair.base_radius(False)
+    kh_nl = 207e9**0.9 * 0.02**0.8 * force**0.1 / 1.275  # 1.16e9 N/m
+    expected = 1.0 / (1.0 / table + 1.0 / kh_nl - 1.0 / pair.hertz_stiffness(25.0))
+    assert single.any() and np.max(np.abs(k_nl[single] / expected[single] - 1.0)) <= 1e-12
+    assert np.all(k_nl < table)  # a softer contact everywhere (1.16e9 and less, against 3.55e9)
+    scale = nonlinear_hertz_scale()
+    assert abs(scale - k_nl.mean() / table.mean()) <= 1e-15
+    v = hertz_variation()
+    assert v.overrides == (("mesh_stiffness_scale", scale),) and "proxy" in v.title

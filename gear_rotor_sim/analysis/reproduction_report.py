@@ -405,9 +405,10 @@ def _write_edge_sensitivity(add: Callable[[str], None], es: dict[str, Any]) -> N
     add("### The 25 C band against the parameters the paper does not give")
     add("")
     add(
-        "Not readings of the text: each row changes, on its own, one parameter the paper does not give "
-        'or one modelling detail it leaves open (a row that names "the paper: ..." departs from the text '
-        "and is shown for the size of the effect) in the as-published configuration "
+        "Each row changes, on its own, one parameter the paper does not give or one modelling detail it "
+        'leaves open (a row that names "the paper: ..." departs from the text and is shown for the size '
+        "of the effect; a row marked proxy is a reading of the text run through the mesh-stiffness "
+        "scale) in the as-published configuration "
         "(`gear_rotor_sim/analysis/readings.py`, "
         f"`edge_sensitivity`), 25 C swept upwards over {es['window_rpm'][0]:.0f}-{es['window_rpm'][1]:.0f} "
         f"rpm on a {es['step_rpm']:g} rpm grid in one continuation, windows closer than {es['gap_rpm']:g} "

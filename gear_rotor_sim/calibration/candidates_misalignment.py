@@ -1,4 +1,4 @@
-"""Fitting a gear's angular misalignment (``gear_misalignment``; docs/calibration.md Sec. 8.7).
+"""Fitting a gear's angular misalignment (``gear_misalignment``; docs/calibration.md Sec. 8.8).
 
 The effect (:class:`gear_rotor_sim.faults.GearMisalignment`) has two parts. The axial component of
 the mesh force, ``F0 angle cos(theta + phi)`` on both wheels, is quasi-static (the wheel's order 1,

@@ -8,7 +8,7 @@ oscillation: its mesh harmonics, their sidebands and the low orders it produces 
 the uncertain baseline. Measured on the FE model at 8000 rpm (healthy, 23 % contact loss): mesh
 stiffness x0.9 / x1.1, mesh damping x0.7 / x1.4 and bearing stiffness x0.8 / x1.25 change the
 mesh carriers by 20-60 % and the low orders and sidebands of the accelerations by 100-400 % of
-their own size (``docs/calibration.md`` Sec. 8.8). A model-form tolerance of 5 % on them reads that
+their own size (``docs/calibration.md`` Sec. 8.9). A model-form tolerance of 5 % on them reads that
 uncertainty as fault evidence, and a fault's fit is then pulled by the rattle's own content at the
 fault's orders (an eccentricity fitted +140 % from the pinion's order-1 acceleration, which the
 rattle of the healthy machine dominates).

@@ -119,7 +119,7 @@ class BearingDefect(Effect):
     as the speed rises (0.10 ms at 3000 rpm, 0.038 ms at 8000 rpm on the 6206); ``pulse_s`` fixes
     the duration instead. Where the pulse is shorter than the sampling interval only its impulse is
     observed, and a fixed 0.1 ms pulse read an impact of the true transit time at 8000 rpm as half
-    its peak force (docs/calibration.md Sec. 8.8):
+    its peak force (docs/calibration.md Sec. 8.9):
 
     * outer race: fixed at ``defect_angle_rad``; BPFO; no modulation;
     * inner race: rotates with the shaft (``theta + defect_angle_rad``); BPFI; load-zone

@@ -8,9 +8,11 @@
   ``depth`` of that tooth's share while it is engaged (Chaari et al. 2009; Mohammed et al. 2009):
   once-per-revolution modulation, sidebands around the mesh orders.
 * ``tooth_wear``: uniform wear depth ``h``: the half backlash grows by ``h`` and a profile error
-  that is zero at the pitch point and grows towards root and tip with the sliding distance (Archard
-  wear; Flodin & Andersson 1997) adds ``h (|2 p - 1| - 1/2)`` to the transmission error over each
-  mesh cycle (phase ``p``): odd mesh harmonics.
+  shaped like sliding wear (growing from the pitch point towards root and tip with the sliding
+  distance; Archard wear, Flodin & Andersson 1997) adds ``h (|2 p - 1| - 1/2)`` to the transmission
+  error over each mesh cycle (phase ``p``): odd mesh harmonics. The profile term has zero mean
+  (``-h/2`` at the pitch point), so in contact the mean transmission error grows by ``h`` (the
+  backlash) alone (docs/calibration.md Sec. 8.8).
 * ``gear_misalignment``: tooth lines of one wheel tilted (wobbling) about the middle of the face by
   an angle: axial mesh-force component at its order 1; once the tilt exceeds what the mesh
   deflection covers, an edge-loaded, softer mesh twice per revolution of that wheel.
@@ -182,7 +184,8 @@ class ToothDamage(Effect):
 
 
 def wear_profile(phase: np.ndarray) -> np.ndarray:
-    """Normalised wear profile error over a mesh cycle: ``|2 p - 1| - 1/2`` (zero mean)."""
+    """Normalised wear profile error over a mesh cycle: ``|2 p - 1| - 1/2`` (zero mean: the
+    sliding-wear shape, lowest at the pitch point ``p = 1/2``, with its mean carried by the backlash)."""
     return np.abs(2.0 * np.asarray(phase) - 1.0) - 0.5
 
 
