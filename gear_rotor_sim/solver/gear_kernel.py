@@ -72,7 +72,7 @@ _EVENT_SNAP = 1e-9
 # per-mesh physics (scalar arguments, or rare paths)
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _tables_at(
     i: int,
     f: float,
@@ -88,10 +88,12 @@ def _tables_at(
     continuous parts plus the jumps through the periodic steps ``[f >= p] - f``
     (``newmark.split_table_jumps``). Right-continuous.
 
-    The arrays of ``tables`` (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump) are
-    indexed where they are used, not unpacked into names: a name bound to an array across the loops
-    below costs an atomic reference-count increment and decrement per call (numba cannot prune them),
-    18 per call when the tuple was unpacked (counted with gdb on ``NRT_incref``/``NRT_decref``).
+    Compiled without the numba runtime (``_nrt=False``: it allocates nothing), so that its array
+    arguments cost no atomic reference-count increment and decrement per call: with them, the
+    calls from the event steps were half of the NRT_incref/NRT_decref calls at 20000 rpm (gdb
+    backtraces with NUMBA_DEBUGINFO), and the atomics 20-38 % of the run (perf). The arrays of
+    ``tables`` (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump) are indexed
+    where they are used.
     """
     nt = tables[3].shape[1]
     nb = tables[4].shape[2]
@@ -454,11 +456,13 @@ def _affine_forces(
 # sub-steps (event steps only)
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _set_columns(
     i: int, beta: np.ndarray, coef: np.ndarray, fm: float, d: float, dd: float, mesh_par: np.ndarray
 ) -> None:
-    """Amplitudes of mesh i's columns: u = compensation - coef_0 F, friction columns coef_j F."""
+    """Amplitudes of mesh i's columns: u = compensation - coef_0 F, friction columns coef_j F.
+
+    Without the numba runtime (no reference counting of its arguments, as :func:`_tables_at`)."""
     nb = coef.shape[1]
     c = i * nb
     beta[c] = mesh_par[i, 0] * d + mesh_par[i, 1] * dd - coef[i, 0] * fm
