@@ -53,6 +53,7 @@ from scipy.optimize import minimize_scalar
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
+from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.residual import (
@@ -282,6 +283,9 @@ class Calibrator:
     baseline_reference : dict, optional
         Summary of the reference record the held baseline comes from (reported as
         ``baseline.reference``; :meth:`calibration.baseline.ReferenceBaseline.calibrator_kwargs`).
+    rattle_rules : bool
+        Where the healthy model's teeth separate, add the baseline-ensemble variance to the order
+        features and leave out a locked rattle component (``features_rattle.py``; default True).
     """
 
     def __init__(
@@ -302,6 +306,7 @@ class Calibrator:
         baseline_sets: Sequence[Effect] | None = None,
         model_window: bool = True,
         baseline_reference: dict[str, Any] | None = None,
+        rattle_rules: bool = True,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -310,6 +315,7 @@ class Calibrator:
             if measurement.bearing_type:
                 cfg = cfg.with_bearing_type(measurement.bearing_type)
         self.m = measurement
+        self.rattle_rules = rattle_rules
         self.settings = settings or ResidualSettings()
         self.fit = fit_settings or FitSettings()
         self.log = log or (lambda s: None)
@@ -992,6 +998,7 @@ class Calibrator:
         self._sig_cache: dict[str, ModelFeatures] = {}
         self._sig_checked: dict[tuple, bool] = {}
         self.base_raw = self._raw(())
+        self.base_contact_loss = float(self.runner.last_contact_loss)
         base_out = self.runner.outputs(self.base_raw)
         self.cmp.set_baseline(base_out)
         if self.runner.sensors is not None and any(housing_source(c) for c in self.runner.channels):
@@ -1153,6 +1160,15 @@ class Calibrator:
 
     def run(self) -> CalibrationResult:
         base_out = self._setup()
+        if self.rattle_rules:
+            # where the teeth separate: honest order uncertainties (features_rattle.py)
+            apply_rattle_uncertainty(
+                self.cmp,
+                self._features(self.base_raw),
+                lambda e: self._features(self._raw((e,))),
+                self.base_contact_loss,
+                self.m.issues,
+            )
         self._refit_transfer(self._features(self.base_raw))
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total
