@@ -398,6 +398,7 @@ def measure(quick: bool = True, ramps: bool = False) -> dict:
         repeats,
     )
     two["ratio"] = two["two_stage"]["rtf"] / two["paper"]["rtf"]
+    two["ratio_cpu"] = two["two_stage"]["rtf_cpu"] / two["paper"]["rtf_cpu"]  # the figure under load
     for k in ("paper", "two_stage"):
         two[k].pop("last")
     res["two_stage_3000rpm"] = two
@@ -481,7 +482,10 @@ def report(res: dict) -> None:
             f"  {key:10s} {','.join(r['channels']):20s} RTF {r['rtf']:7.2f} | {r['rtf_cpu']:7.2f}  "
             f"{r['steps_per_s'] / 1e6:6.3f} M steps/s wall (dt {r['dt_s'] * 1e6:.3f} us; {la(r)})"
         )
-    print(f"  two-stage / paper RTF: {t['ratio']:.3f} (goal >= 0.40)")
+    print(
+        f"  two-stage / paper RTF: {t['ratio']:.3f} wall | {t['ratio_cpu']:.3f} CPU (goal >= 0.40; on a "
+        "loaded machine the CPU ratio is the measurement)"
+    )
     print(
         "\n(f) two-stage example, full against reduced model (modal_cutoff_hz='auto'), DTE channels, "
         "interleaved"
@@ -545,7 +549,7 @@ def report(res: dict) -> None:
         f"(goal 2 M); RTF DTE-only (default model) 3000 rpm {res['rtf_3000rpm']:.1f} (goal 100), "
         f"20000 rpm {res['rtf_20000rpm']:.1f} (goal 15); default / full at 20000 rpm "
         f"{res['speedup_vs_full']:.2f} (goal 3); two-stage / paper {res['two_stage_3000rpm']['ratio']:.2f} "
-        "(goal 0.40)"
+        f"wall, {res['two_stage_3000rpm']['ratio_cpu']:.2f} CPU (goal 0.40)"
     )
 
 

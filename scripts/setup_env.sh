@@ -48,5 +48,12 @@ if ! (cd / && "$ROOT/.venv/bin/python" -c "import gear_rotor_sim") 2>/dev/null; 
 fi
 # Compile the numba kernels ahead (cached next to the sources), so that the first `ros2 run` after the
 # set-up starts as fast as later ones; skipped when the cache is current (docs/ros.md, "Start-up").
-OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} .venv/bin/python -m gear_rotor_sim.warmup --if-changed
+# Run in the workspace's environment from outside the checkout, so that the package is imported from
+# the colcon install as the node imports it: with NUMBA_CACHE_DIR set, numba keys its cache by that path.
+(
+  set +u
+  . scripts/env.sh
+  cd /
+  OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} python -m gear_rotor_sim.warmup --if-changed
+)
 echo "[setup] ready: . scripts/env.sh to use ROS from this checkout"

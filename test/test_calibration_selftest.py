@@ -122,11 +122,7 @@ def test_healthy_control_claims_nothing(rig, op: str) -> None:
 
 
 #: Known misses, each with its measured value.
-KNOWN_MISSES: dict[str, str] = {
-    "B-shaft_misalignment@node1": "offset now within 25 % (116.5 um for 120 um, -2.9 %, since the transfer "
-    "slope is held within the carrier band; was -25.3 %), but the error is not halved: 2.20 -> 1.277 "
-    "(ratio 0.58; below the 1.3 stop level, the effect's signature is weak at op B)",
-}
+KNOWN_MISSES: dict[str, str] = {}
 
 
 @pytest.mark.parametrize(

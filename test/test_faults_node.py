@@ -326,3 +326,30 @@ def test_monitor_reports_fault_alarms_on_the_housing_stream(node_run: dict) -> N
     st = node_run["fault_status"]
     assert st, "no 'fault alarms' status from the monitor"
     assert all(s.message == "no fault alarm" or s.message.startswith("alarm: ") for s in st)
+
+
+def test_truth_is_the_blocks_list_not_the_newest() -> None:
+    """The output thread publishes the truth of the list a block was integrated with: a list the
+    stepping thread applied for a later block does not show at an earlier block's start (the race
+    that stamped a new fault at the start of the block before it)."""
+    from gear_rotor_sim.config import load_config
+    from gear_rotor_sim.ros.node_faults import NodeFaults
+
+    class _Sim:
+        def set_effects(self, effects: object) -> None:
+            self.effects = effects
+
+    nf = NodeFaults(load_config("paper_sun2021"), ())
+    block_k = (nf.faults, nf.generation)  # healthy
+    ok, _ = nf.request(json.dumps([INITIAL]))  # JSON is YAML
+    assert ok and nf.apply_pending(_Sim())
+    block_k1 = (nf.faults, nf.generation)  # integrated with the fault
+    first = nf.state_if_changed(0.0, *block_k)  # published after the stepping thread moved on
+    assert first is not None and first["faults"] == []
+    assert nf.state_if_changed(0.1, *block_k) is None  # nothing changed for that list
+    later = nf.state_if_changed(0.2, *block_k1)
+    assert later is not None and [f["type"] for f in later["faults"]] == ["tooth_damage"]
+    assert (later["stamp_sec"], later["stamp_nanosec"]) == (0, 200_000_000)
+    # the same list applied again is published again (a replaced list, even if equal)
+    assert nf.request(json.dumps([INITIAL]))[0] and nf.apply_pending(_Sim())
+    assert nf.state_if_changed(0.3, nf.faults, nf.generation) is not None

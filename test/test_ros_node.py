@@ -202,7 +202,15 @@ def experiment(tmp_path_factory: pytest.TempPathFactory) -> Experiment:
         for v in (math.nan, -300.0, 5000.0):
             probe.set_temperature(v)
         ex.bad_setpoints = len(bad) + 3
-        time.sleep(1.0)
+        # the next /diagnostics after the refusals (period 1 s wall; a fixed sleep raced the first
+        # reports, which a loaded machine can delay or a late discovery lose)
+        wait_for(
+            lambda: (
+                int((probe.latest_status(": setpoints") or {}).get("refused_total", 0)) >= ex.bad_setpoints
+            ),
+            SIM_TIMEOUT_S,
+            "diagnostics counting the refused setpoints",
+        )
         ex.diag["after_bad"] = probe.latest_status(": setpoints") or {}
         ex.diag["sim_after_bad"] = probe.latest_status(": simulation") or {}
         # burst of mixed setpoints at 1 kHz

@@ -6,7 +6,9 @@ updated model (``docs/calibration.md`` Sec. 8.1). What carries over from the ref
 operating point, and why:
 
 * **carried**: the baseline parameter sets fitted on the reference, i.e. the mesh stiffness and
-  damping scales and the bearing stiffness and damping scales (``faults/baseline.py``). They scale
+  damping scales and the bearing (radial and tilt) stiffness and damping scales
+  (``faults/baseline.py``; the axial bearing terms stay nominal, as they set the thermal axial load
+  the static screening reads the temperature from). They scale
   the tooth-pair and bearing stiffnesses of Eq 13-15 and Eq 37, which do not depend on the speed;
   the temperature dependence stays in the model (E(T), thermal preload), so they also hold at
   another temperature;

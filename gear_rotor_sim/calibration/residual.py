@@ -91,6 +91,8 @@ class HousingSensor:
 # Model runner (cached)
 # ---------------------------------------------------------------------------------------------------
 _CACHE: OrderedDict[str, np.ndarray] = OrderedDict()
+#: contact-loss fraction of each cached run (same keys)
+_LOSS: dict[str, float] = {}
 _CACHE_MAX = 400
 
 
@@ -155,6 +157,8 @@ class ModelRunner:
     sensors: dict[str, HousingSensor] = field(default_factory=dict)
     n_runs: int = 0
     n_model: int = 0
+    #: contact-loss fraction (time share of separated teeth) of the last run returned
+    last_contact_loss: float = float("nan")
     n_moved: int = 0  # runs whose window was moved on past a step-rule switch (model_settle.py)
 
     def __post_init__(self) -> None:
@@ -199,6 +203,7 @@ class ModelRunner:
         hit = _CACHE.get(key)
         if hit is not None:
             _CACHE.move_to_end(key)
+            self.last_contact_loss = _LOSS.get(key, float("nan"))
             return hit
         from gear_rotor_sim.simulator import Simulator
 
@@ -232,8 +237,9 @@ class ModelRunner:
         self.n_runs += 1
         self.n_moved += run.shifts > 0
         _CACHE[key] = data
+        self.last_contact_loss = _LOSS[key] = float(sim.last_chunk_stats.get("contact_loss_fraction", 0.0))
         if len(_CACHE) > _CACHE_MAX:
-            _CACHE.popitem(last=False)
+            _LOSS.pop(_CACHE.popitem(last=False)[0], None)
         return data
 
     def signals(
@@ -589,6 +595,13 @@ class Comparison:
         self.m = measurement
         self.runner = runner
         self.s = settings
+        self.v_model_form: list[list[np.ndarray]] | None = None
+        #: per-channel model-form tolerance of the order features (replaces ``tolerance`` if larger)
+        self.channel_tolerance: np.ndarray | None = None
+        #: sensor gains held at 1 and transfer slopes at 0 (not separable from model-form error)
+        self.gains_held = False
+        #: time shift held at 0 (the time origin is the shaft-angle reference of the contract)
+        self.shift_held = False
         self.fs = measurement.sample_rate_hz
         self.y = measurement.data
         self.nc = self.y.shape[1]
@@ -848,7 +861,12 @@ class Comparison:
     def best_shift(self, feats: ModelFeatures) -> float:
         """Time shift within +-``max_shift_mesh_periods`` mesh periods maximising the weighted
         order-domain cross-correlation of model and data (0 without orders or mesh)."""
-        if not self.mesh_hz or self.s.max_shift_mesh_periods <= 0 or "order" not in self.families:
+        if (
+            not self.mesh_hz
+            or self.s.max_shift_mesh_periods <= 0
+            or "order" not in self.families
+            or self.shift_held
+        ):
             return 0.0
         if not hasattr(self, "_shift_grid"):
             span = self.s.max_shift_mesh_periods / self.mesh_hz
@@ -861,7 +879,8 @@ class Comparison:
         best = np.zeros_like(taus)
         for s in range(len(self.shafts)):
             cross = sum(
-                np.conj(self.d_order[c][s]) * feats.order[c][s] / self.v_order[c][s] for c in range(self.nc)
+                np.conj(self.d_order[c][s]) * feats.order[c][s] / self.order_sigma2(c, s)
+                for c in range(self.nc)
             )
             # elementwise product and sum: small matrix products through a threaded BLAS are slow
             # on a loaded machine
@@ -946,14 +965,33 @@ class Comparison:
         The mesh carriers get ``carrier_tolerance`` (model-form floor estimated after the baseline
         fit), every other order the settings' ``tolerance``.
         """
+        v = self.v_order[c][s]
+        if self.v_model_form is not None:
+            v = v + self.v_model_form[c][s]
         if model is None:
-            return self.v_order[c][s]
+            return v
         common = np.minimum(np.abs(model), np.abs(self.d_order[c][s]))
         tol = self.s.tolerance
         ct = getattr(self, "carrier_tolerance", tol)
+        if self.channel_tolerance is not None:  # measured per channel where the teeth separate
+            tol = max(tol, float(self.channel_tolerance[c]))
+            ct = max(ct, tol)
         if ct != tol:
             tol = np.where(self.carriers(s), ct, tol)
-        return self.v_order[c][s] + (tol * common) ** 2
+        return v + (tol * common) ** 2
+
+    def set_model_form_variance(self, var: list[list[np.ndarray]] | None) -> None:
+        """Model-form variance added to every order coefficient's uncertainty (``features_rattle.py``:
+        the spread of the healthy model over its uncertain baseline where the teeth separate)."""
+        self.v_model_form = None if var is None else [[np.asarray(v, float) for v in vs] for vs in var]
+
+    def leave_out_orders(self, s: int, mask: np.ndarray) -> None:
+        """Leave the orders ``mask`` of shaft ``s`` out of the order features on every channel (infinite
+        variance: no weight, not counted)."""
+        for c in range(self.nc):
+            v = self.v_order[c][s].copy()
+            v[np.asarray(mask, dtype=bool)] = np.inf
+            self.v_order[c][s] = v
 
     def comb_chi2(self, feats: ModelFeatures, score: Score) -> np.ndarray:
         """chi^2 of the non-carrier orders (order comb and sidebands) per shaft, all channels, with the
@@ -1017,7 +1055,7 @@ class Comparison:
         """
         g = np.zeros((self.nc, 2))
         g[:, 0] = 1.0
-        if not self.s.fit_gain or "order" not in self.families:
+        if not self.s.fit_gain or self.gains_held or "order" not in self.families:
             return g
         for c in range(self.nc):
             A = np.zeros((2, 2))
@@ -1102,7 +1140,7 @@ class Comparison:
                     r = self.d_order[c][s] - mg
                     s2 = self.order_sigma2(c, s, mg)
                     cc += float(np.sum(np.abs(r) ** 2 / s2))
-                    nn += 2 * r.size
+                    nn += 2 * int(np.count_nonzero(np.isfinite(s2)))  # left-out features do not count
                     rr += float(np.sum(np.abs(r) ** 2))
                     dd += float(np.sum(np.abs(self.d_order[c][s]) ** 2))
                 chi2["order"] += 2 * cc  # complex: 2 real dof, each of variance s2/2

@@ -45,6 +45,7 @@ def candidate_effects(
     unbalance_nodes: tuple[int, ...] | None = None,
     misalignment_nodes: tuple[int, ...] | None = None,
     names: tuple[str, ...] | None = None,
+    bearing_pulse_s: float | None = None,
 ) -> list[Effect]:
     """All library effects applicable to a rig, each at its neutral value with its location fixed.
 
@@ -61,6 +62,9 @@ def candidate_effects(
         1-based nodes; default the gear/disc nodes (unbalance) and the drive node (misalignment).
     names : tuple of str, optional
         Restrict to these library names.
+    bearing_pulse_s : float, optional
+        Fixed impact duration of the bearing defects (default: the transit time over the nominal
+        spall, ``BearingDefect``).
     """
     out: list[Effect] = []
     has_mesh = bool(cfg.meshes)
@@ -85,7 +89,10 @@ def candidate_effects(
         out += [GearMisalignment(member=w, mesh=k) for k in meshes for w in wheels]
     out.append(TemperatureOffset())
     for kind in ("outer", "inner", "ball"):
-        out += [BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry) for b in bearings]
+        out += [
+            BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry, pulse_s=bearing_pulse_s)
+            for b in bearings
+        ]
     if names is not None:
         out = [e for e in out if effect_name(e) in names]
     return out

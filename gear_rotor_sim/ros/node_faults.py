@@ -71,6 +71,10 @@ class NodeFaults:
         self._pending: tuple[FaultSpec, ...] | None = None
         self._lock = threading.Lock()
         self._last_truth: list | None = None
+        self._last_generation = -1
+        #: Counts the lists handed to the simulator; a block carries the list and count it was
+        #: integrated with (the output thread publishes the truth of that block, not the newest list).
+        self.generation = 0
         self.accepted = 0
         self.refused = 0
 
@@ -98,13 +102,21 @@ class NodeFaults:
             return False
         sim.set_effects(timed_effects(pending))
         self.faults = pending
-        self._last_truth = None  # publish the new state
+        self.generation += 1  # publish the new state
         return True
 
-    def state_if_changed(self, t: float) -> dict[str, Any] | None:
-        """``FaultState`` fields at ``t`` when the truth differs from the last published one."""
-        now = truth(self.faults, t)
-        if now == self._last_truth:
+    def state_if_changed(
+        self, t: float, faults: Sequence[FaultSpec] | None = None, generation: int | None = None
+    ) -> dict[str, Any] | None:
+        """``FaultState`` fields at ``t`` when the truth differs from the last published one, or the
+        list was replaced since. ``faults``, ``generation``: the list (and :attr:`generation`) in
+        force for the block that starts at ``t`` (default: the current ones); the simulator node's
+        stepping thread runs up to two blocks ahead of the thread that publishes the truth."""
+        faults = self.faults if faults is None else tuple(faults)
+        generation = self.generation if generation is None else generation
+        now = truth(faults, t)
+        if now == self._last_truth and generation == self._last_generation:
             return None
         self._last_truth = now
-        return fault_state_fields(self.faults, t)
+        self._last_generation = generation
+        return fault_state_fields(faults, t)

@@ -196,6 +196,19 @@ def process_age_s() -> float | None:
         return None
 
 
+def name_os_thread(name: str) -> None:
+    """Name the calling thread in the operating system (Linux ``prctl(PR_SET_NAME)``, at most 15
+    bytes: ``top -H``, ``/proc/<pid>/task/<tid>/comm``, ``benchmarks/bench_node.py``); a no-op where
+    that is not available."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(15, ctypes.c_char_p(name.encode("ascii")[:15]), 0, 0, 0)  # 15: PR_SET_NAME
+    except (OSError, AttributeError, ValueError):
+        pass
+
+
 #: Interpreter-lock switch interval of the node process (Python's default is 5 ms).
 GIL_SWITCH_INTERVAL_S = 2e-4
 
@@ -582,6 +595,7 @@ class SimulatorNode(Node):
         }
 
     def _run(self) -> None:
+        name_os_thread("gear_rotor_step")
         try:
             self._loop()
         except Exception as exc:  # reported on /diagnostics and in the log; the node stays up
@@ -611,25 +625,27 @@ class SimulatorNode(Node):
             writer.join()
 
     def _output_loop(self, out_q: queue.Queue) -> None:
+        name_os_thread("gear_rotor_out")
         sequence = {s.name: 0 for s in self._streams}
         clock = Clock()
         while True:
             item = out_q.get()
             if item is None:
                 return
-            pending, t_end = item
+            pending, t_end, faults = item
             try:
                 # the decimation FIR runs here, on this thread, while the stepping thread integrates
                 # the next chunk (Simulator.advance_deferred)
-                self._publish_block(pending.result(), t_end, sequence, clock)
+                self._publish_block(pending.result(), t_end, sequence, clock, faults)
             except Exception as exc:  # reported; the stream goes on with the next block
                 self.get_logger().error(f"publishing failed: {type(exc).__name__}: {exc}")
 
-    def _publish_faults(self, t: float) -> None:
-        """Ground truth on /gear_rotor/faults (and in the recording) when it changed."""
-        if self._faults is None:
+    def _publish_faults(self, t: float, faults: tuple | None) -> None:
+        """Ground truth on /gear_rotor/faults (and in the recording) when it changed; ``faults``:
+        (list, generation) the block starting at ``t`` was integrated with (see ``_simulate``)."""
+        if self._faults is None or faults is None:
             return
-        fields = self._faults.state_if_changed(t)
+        fields = self._faults.state_if_changed(t, *faults)
         if fields is None:
             return
         self._fault_pub.publish(fault_state_msg(fields))
@@ -645,8 +661,10 @@ class SimulatorNode(Node):
             except Exception as exc:  # the recording's own failure handling reports on the next chunk
                 self.get_logger().error(f"fault state not recorded: {exc}")
 
-    def _publish_block(self, block: SampleBlock, t_end: float, sequence: dict, clock: Clock) -> None:
-        self._publish_faults(block.t0)
+    def _publish_block(
+        self, block: SampleBlock, t_end: float, sequence: dict, clock: Clock, faults: tuple | None
+    ) -> None:
+        self._publish_faults(block.t0, faults)
         if self._housing is not None:
             from gear_rotor_sim.sensors.housing import append_housing
 
@@ -735,6 +753,9 @@ class SimulatorNode(Node):
                     self._faults.apply_pending(self._sim)
                 except ValueError as exc:  # validated on request; a rig-level refusal is reported
                     self.get_logger().error(f"faults not applied, previous faults kept: {exc}")
+            # the fault list this block is integrated with: the output thread, up to two blocks
+            # behind, publishes its truth (not the newest list's) at the block's start
+            faults = None if self._faults is None else (self._faults.faults, self._faults.generation)
             rtf = float(self._values["real_time_factor"])
             chunk = float(self._values["chunk_period_s"])
             t_start = float(self._sim.time_s)
@@ -756,7 +777,7 @@ class SimulatorNode(Node):
                 self._stop.wait(due - now)
             elif late:
                 anchor_wall, anchor_sim = now, t_end  # cannot keep up: sim time slows down
-            out_q.put((block, t_end))  # waits while the output thread is _OUTPUT_QUEUE blocks behind
+            out_q.put((block, t_end, faults))  # waits while the output thread is _OUTPUT_QUEUE blocks behind
             self._record_progress(block, t_end, late)
 
     def _record_progress(self, block: PendingBlock, t_end: float, late: bool) -> None:

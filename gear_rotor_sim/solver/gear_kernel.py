@@ -63,16 +63,21 @@ from gear_rotor_sim.solver.kernels import (
 )
 
 _MAX_PIECES = 24
-#: A jump closer than this fraction of a step to a step boundary is taken at that boundary (no
-#: sub-step of zero length; with dt = T_mesh / s the phase-0 jump falls on grid points).
-_EVENT_SNAP = 1e-9
+#: A jump closer than this fraction of a step to a step boundary is taken at that boundary (with
+#: dt = T_mesh / s the phase-0 jump falls on grid points, up to the round-off of the accumulated mesh
+#: phase). 1e-9 let that round-off (3.6e-11 of a mesh period after 3 s at 13275 rpm) leave a sub-step
+#: of 1.8e-9 of a step in which the teeth reached the back flank: the pinned state's force
+#: (-b* - delta_m0) / a_m, a_m proportional to the sub-step length, was 1e236 N and the state
+#: non-finite (speed continuation of the as-published configuration, 225 C, mesh damping ratio
+#: 0.099). Taking a jump up to 1e-6 of a step early or late is an error of that order in its impulse.
+_EVENT_SNAP = 1e-6
 
 
 # ----------------------------------------------------------------------------------------------
 # per-mesh physics (scalar arguments, or rare paths)
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _tables_at(
     i: int,
     f: float,
@@ -88,10 +93,12 @@ def _tables_at(
     continuous parts plus the jumps through the periodic steps ``[f >= p] - f``
     (``newmark.split_table_jumps``). Right-continuous.
 
-    The arrays of ``tables`` (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump) are
-    indexed where they are used, not unpacked into names: a name bound to an array across the loops
-    below costs an atomic reference-count increment and decrement per call (numba cannot prune them),
-    18 per call when the tuple was unpacked (counted with gdb on ``NRT_incref``/``NRT_decref``).
+    Compiled without the numba runtime (``_nrt=False``: it allocates nothing), so that its array
+    arguments cost no atomic reference-count increment and decrement per call: with them, the
+    calls from the event steps were half of the NRT_incref/NRT_decref calls at 20000 rpm (gdb
+    backtraces with NUMBA_DEBUGINFO), and the atomics 20-38 % of the run (perf). The arrays of
+    ``tables`` (tab_kf, tab_cf, jflag, tab_k, tab_c, jump_p, jump_k, jump_c, n_jump) are indexed
+    where they are used.
     """
     nt = tables[3].shape[1]
     nb = tables[4].shape[2]
@@ -454,11 +461,13 @@ def _affine_forces(
 # sub-steps (event steps only)
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _set_columns(
     i: int, beta: np.ndarray, coef: np.ndarray, fm: float, d: float, dd: float, mesh_par: np.ndarray
 ) -> None:
-    """Amplitudes of mesh i's columns: u = compensation - coef_0 F, friction columns coef_j F."""
+    """Amplitudes of mesh i's columns: u = compensation - coef_0 F, friction columns coef_j F.
+
+    Without the numba runtime (no reference counting of its arguments, as :func:`_tables_at`)."""
     nb = coef.shape[1]
     c = i * nb
     beta[c] = mesh_par[i, 0] * d + mesh_par[i, 1] * dd - coef[i, 0] * fm
