@@ -71,6 +71,12 @@ def wear_static_inconsistency(fit: CandidateFit, cur: Score) -> str:
     if not isinstance(fit.effect, ToothWear) or "static" not in cur.chi2 or "static" not in fit.score.chi2:
         return ""
     before, after = cur.chi2["static"], fit.score.chi2["static"]
+    n_s = max(cur.n["static"], 1)
+    if before <= 9.0 * n_s + 25.0:
+        return (
+            f"the channel means agree with the unworn model (static chi2 {before:.3g} for {n_s} means): "
+            "no static offset for wear to explain"
+        )
     if after <= before:
         return ""
     return (
