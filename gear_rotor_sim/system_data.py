@@ -49,6 +49,10 @@ class MeshCoupling:
     # jumps: rows (phase, dk, dcoef_0..nb-1), right limit minus left limit; None if not known. Kernels
     # that locate these events inside a step split the step there (docs/solver.md).
     table_jumps: np.ndarray | None = None
+    # Sliding-wear transmission error per unit wear depth on the same uniform phase grid (dimensionless,
+    # faults.gear.mesh_wear_profile: zero at the pitch point, 1 at the far end of the path of contact);
+    # None when the mesh geometry is not known.
+    table_wear_profile: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

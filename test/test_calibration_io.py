@@ -29,9 +29,12 @@ from gear_rotor_sim.faults import (
     MassUnbalance,
     ShaftMisalignment,
     load_zone,
+    mesh_wear_profile,
     tooth_share,
     wear_profile,
 )
+from gear_rotor_sim.gears import paper_gear_pair
+from gear_rotor_sim.materials import carbon_steel
 
 SIDECAR = {
     "sample_rate_hz": 1000,
@@ -279,8 +282,29 @@ def test_tooth_share_and_wear_profile() -> None:
     one = tooth_share(u, 6, 29, eps)
     assert np.all(one[(u >= 6.6) & (u < 7.0)] == 1.0) and np.all(one[(u >= 6.0) & (u < 6.6)] == 0.5)
     assert np.all(one[(u < 6.0) | (u >= 7.6)] == 0.0)
-    p = np.linspace(0, 1, 1001)
-    assert abs(np.mean(wear_profile(p))) < 1e-3 and wear_profile(np.array([0.5]))[0] == -0.5
+
+
+def test_wear_profile_is_archard_removal_zero_at_the_pitch_point() -> None:
+    """Sliding wear (Archard): removal proportional to the sliding distance |s - s_P|, zero at the
+    pitch point, 1 at the far end of the path, never negative; the mesh sees the load-share weighted
+    mean, which in single contact is the one pair's removal at its position from the involute geometry."""
+    s_a, s_p, s_e = 0.010, 0.016, 0.025
+    s = np.array([s_a, s_p, s_e, 0.5 * (s_p + s_e), np.nan])
+    np.testing.assert_allclose(wear_profile(s, s_p, s_a, s_e), [6 / 9, 0.0, 1.0, 0.5, 0.0], rtol=1e-12)
+    with pytest.raises(ValueError, match="pitch_point"):
+        wear_profile(s, 0.03, s_a, s_e)
+    pair = paper_gear_pair(carbon_steel())
+    table = pair.mesh_stiffness_table(25.0, n_points=512)
+    w = mesh_wear_profile(table)
+    assert np.all(w >= 0.0) and np.all(w <= 1.0 + 1e-12)
+    reach = max(pair.contact_end - pair.pitch_point, pair.pitch_point - pair.contact_start)
+    single = table.n_pairs == 1
+    pos = np.nanmin(table.contact_position[single], axis=1)
+    np.testing.assert_allclose(w[single], np.abs(pos - pair.pitch_point) / reach, rtol=1e-12)
+    # the pitch point's phase from the geometry (s_P - s_A) / p_b: no removal there
+    ph_p = ((pair.pitch_point - pair.contact_start) / pair.base_pitch) % 1.0
+    w_p = np.interp(ph_p, table.phase, w, period=1.0)
+    assert w_p <= 2.0 * pair.base_pitch / (512 * reach)  # within one grid cell of the slope 1/reach
 
 
 def test_bearing_impulse_rate_load_zone_and_slip() -> None:

@@ -74,3 +74,24 @@ def test_periodic_candidates_need_synchronous_evidence() -> None:
     )
     # other candidates are not judged by this rule
     assert periodic_signature_present(cal, CandidateFit(object(), envelope_only, None, 1, {}), before)
+
+
+def test_wear_needs_a_static_offset_and_must_reduce_it() -> None:
+    """Wear's model-robust signature is the DTE mean (issue 11 item 3): refused where the channel means
+    agree with the unworn model (chi^2 within 9 per mean + 25) or where it fits them worse."""
+    from types import SimpleNamespace
+
+    from gear_rotor_sim.calibration.candidates_wear import wear_static_inconsistency
+    from gear_rotor_sim.faults import MassUnbalance, ToothWear
+
+    def score(chi2: float) -> SimpleNamespace:
+        return SimpleNamespace(chi2={"static": chi2}, n={"static": 5})
+
+    off = score(400.0)  # 5 means, about 9 sigma each: beyond 9 * 5 + 25 = 70
+    fit = SimpleNamespace(effect=ToothWear(wear_depth_m=20e-6), score=score(30.0))
+    assert wear_static_inconsistency(fit, off) == ""
+    worse = SimpleNamespace(effect=ToothWear(wear_depth_m=20e-6), score=score(500.0))
+    assert "fit worse" in wear_static_inconsistency(worse, off)
+    assert "agree with the unworn model" in wear_static_inconsistency(fit, score(60.0))
+    other = SimpleNamespace(effect=MassUnbalance(), score=score(500.0))
+    assert wear_static_inconsistency(other, off) == ""

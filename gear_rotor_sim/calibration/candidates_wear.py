@@ -58,3 +58,28 @@ def periodic_signature_present(cal: Calibrator, fit: CandidateFit, cur: Score) -
         "envelope of a non-periodic response"
     )
     return False
+
+
+def wear_static_inconsistency(fit: CandidateFit, cur: Score) -> str:
+    """Why a tooth-wear fit contradicts the channel means ('' if it does not).
+
+    Wear removes flank material: in contact the DTE mean grows by the uniform removal plus the mean
+    of the sliding-wear profile (faults.gear.mesh_wear_profile). That static offset is wear's
+    model-robust signature; a wear depth whose channel means fit worse than the unworn model's
+    explains dynamic model-form content, not wear (issue 11 item 3).
+    """
+    if not isinstance(fit.effect, ToothWear) or "static" not in cur.chi2 or "static" not in fit.score.chi2:
+        return ""
+    before, after = cur.chi2["static"], fit.score.chi2["static"]
+    n_s = max(cur.n["static"], 1)
+    if before <= 9.0 * n_s + 25.0:
+        return (
+            f"the channel means agree with the unworn model (static chi2 {before:.3g} for {n_s} means): "
+            "no static offset for wear to explain"
+        )
+    if after <= before:
+        return ""
+    return (
+        f"its channel means fit worse than without it (static chi2 {before:.3g} -> {after:.3g}): wear "
+        "must move the DTE mean toward the measured one"
+    )

@@ -51,7 +51,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
-from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present
+from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
@@ -1113,6 +1113,9 @@ class Calibrator:
         The static family (channel means) must not get worse beyond its own uncertainty: a
         temperature offset must agree with the mean axial bearing force and DTE where observed.
         """
+        wear_why = wear_static_inconsistency(ver, cur)
+        if wear_why:
+            return wear_why
         if "static" not in ver.score.chi2 or "static" not in cur.chi2:
             if isinstance(ver.effect, TemperatureOffset):
                 self.notes.append(
@@ -1320,6 +1323,15 @@ class Calibrator:
                 verdict = ""
                 status = "found"
                 if isinstance(ver.effect, BASELINE_TYPES):
+                    # a baseline scale must not move a significantly wrong channel mean further away
+                    # (issue 11 item 3): a stiffer mesh cannot explain a DTE mean that grew
+                    rb, ra = np.abs(cur_score.static_r), np.abs(ver.score.static_r)
+                    if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
+                        self.notes.append(
+                            f"{ver.effect.label}: baseline update not taken, it moves a channel mean "
+                            f"that is {float(np.max(rb)):.3g} sigma off further away"
+                        )
+                        continue
                     if dbic > self.fit.bic_threshold:
                         ver.delta_bic, ver.explained = dbic, expl
                         chosen = (ver, runner_up)

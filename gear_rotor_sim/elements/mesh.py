@@ -395,6 +395,8 @@ def build_mesh_coupling(
         v_global = v_global * mirror
         basis = basis * mirror[:, None]
     jumps = table_jumps(pair, float(temperature_c), mu)
+    from gear_rotor_sim.faults.gear import mesh_wear_profile  # faults import elements: no cycle at load
+
     coef_interp = _periodic_interpolator(table.phase, coef)
     stiff_interp = _periodic_interpolator(table.phase, table.stiffness)
     if pinion_polar_inertia is None:
@@ -432,4 +434,5 @@ def build_mesh_coupling(
         table_stiffness=uniform_table(table.phase, table.stiffness),
         table_coefficients=uniform_table(table.phase, coef),
         table_jumps=jumps,
+        table_wear_profile=uniform_table(table.phase, mesh_wear_profile(table)),
     )

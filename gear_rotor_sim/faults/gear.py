@@ -183,21 +183,73 @@ class ToothDamage(Effect):
         return on_mesh(ctx, self.mesh, 1.0 - self.depth * share, 1.0)
 
 
-def wear_profile(phase: np.ndarray) -> np.ndarray:
-    """Normalised wear profile error over a mesh cycle: ``|2 p - 1| - 1/2`` (zero mean: the
-    sliding-wear shape, lowest at the pitch point ``p = 1/2``, with its mean carried by the backlash)."""
-    return np.abs(2.0 * np.asarray(phase) - 1.0) - 0.5
+def wear_profile(
+    position: np.ndarray, pitch_point: float, contact_start: float, contact_end: float
+) -> np.ndarray:
+    """Sliding-wear depth of a flank point, per unit wear depth (Archard's law).
+
+    Archard (1953): the worn depth is proportional to contact pressure times sliding distance. On an
+    involute pair the sliding speed is proportional to the distance ``|s - s_P|`` of the contact point
+    from the pitch point along the line of action (the flanks roll without sliding at ``s_P``), so the
+    removal grows linearly from zero at the pitch point to its largest value at the far end of the
+    path of contact ``[s_A, s_E]`` (Flodin & Andersson 1997 use the same sliding distance per contact
+    cycle). Normalised to 1 there; never negative (material is only removed).
+
+    Parameters
+    ----------
+    position : ndarray
+        Contact position s along the line of action, m from T1 (NaN where not in contact: gives 0).
+    pitch_point, contact_start, contact_end : float
+        s_P, s_A, s_E, m from T1 (:class:`~gear_rotor_sim.gears.SpurGearPair`).
+    """
+    s = np.asarray(position, dtype=float)
+    reach = max(contact_end - pitch_point, pitch_point - contact_start)
+    if not (reach > 0.0 and contact_start <= pitch_point <= contact_end):
+        raise ValueError(
+            f"pitch_point: {pitch_point} must lie within the path of contact [{contact_start}, {contact_end}]"
+        )
+    r = np.abs(s - pitch_point) / reach
+    return np.where(np.isfinite(r), r, 0.0)
+
+
+def mesh_wear_profile(table: Any) -> np.ndarray:
+    """Transmission error of the sliding-wear profile over a mesh cycle, per unit wear depth.
+
+    The pairs in contact act in parallel, so the mesh sees the load-share weighted mean of their
+    flank removals (``sum_j lambda_j r(s_j)``, ``lambda_j`` the pair's share of Eq 14). The pitch
+    point's phase is the mesh geometry's (``(s_P - s_A) / p_b``), not mid-cycle.
+
+    Parameters
+    ----------
+    table : MeshStiffnessTable
+        Mesh stiffness table (``contact_position``, ``load_share``, ``pitch_point``).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Non-negative, at most 1.
+    """
+    pos = np.asarray(table.contact_position, dtype=float)
+    s_a = float(np.nanmin(pos))
+    s_e = s_a + float(table.contact_ratio) * float(table.base_pitch)
+    r = wear_profile(pos, float(table.pitch_point), s_a, s_e)
+    return np.sum(np.asarray(table.load_share, dtype=float) * r, axis=1)
 
 
 @dataclass(frozen=True)
 class ToothWear(Effect):
-    """Uniform tooth wear of depth ``h``: larger backlash plus a sliding-wear profile error.
+    """Tooth wear of depth ``h``: uniform removal h on the loaded flank plus a sliding-wear profile.
+
+    The uniform part adds h to the half backlash (the DTE mean grows by h in contact); the sliding
+    part (Archard 1953; Flodin & Andersson 1997) removes ``h r(s)`` with ``r`` zero at the pitch point
+    and 1 at the far end of the path of contact (:func:`wear_profile`), added to the transmission
+    error as the load-share weighted mean over the pairs in contact (:func:`mesh_wear_profile`).
+    Both parts are material removal, never added material.
 
     Parameters
     ----------
     wear_depth_m : float
-        Wear depth h, m: adds h to the half backlash and ``h (|2p - 1| - 1/2)`` to the
-        transmission error over each mesh cycle.
+        Wear depth h, m: the uniform removal and the largest sliding-wear removal (path ends).
     mesh : int
         1-based mesh (order of ``meshes:`` in the rig).
     """
@@ -219,7 +271,15 @@ class ToothWear(Effect):
 
     def transmission_error(self, ctx: Any) -> np.ndarray | None:
         phase = ctx.mesh_phases[:, self.mesh - 1] if ctx.mesh_phases is not None else ctx.mesh_phase
-        return on_mesh(ctx, self.mesh, self.wear_depth_m * wear_profile(phase), 0.0)
+        table = ctx.system.meshes[self.mesh - 1].table_wear_profile
+        if table is None:
+            raise ValueError(
+                f"mesh: {self.mesh} has no sliding-wear table (its gear geometry is not known); tooth_wear "
+                "needs a mesh built by elements.mesh.build_mesh_coupling"
+            )
+        grid = np.arange(table.size) / table.size
+        profile = np.interp(np.asarray(phase, dtype=float), grid, table, period=1.0)
+        return on_mesh(ctx, self.mesh, self.wear_depth_m * profile, 0.0)
 
     def modify_config(self, cfg: RigConfig) -> RigConfig:
         meshes = tuple(
