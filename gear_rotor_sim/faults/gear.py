@@ -7,12 +7,11 @@
 * ``tooth_damage``: a root crack or chipped tooth lowers the mesh stiffness by the fraction
   ``depth`` of that tooth's share while it is engaged (Chaari et al. 2009; Mohammed et al. 2009):
   once-per-revolution modulation, sidebands around the mesh orders.
-* ``tooth_wear``: uniform wear depth ``h``: the half backlash grows by ``h`` and a profile error
-  shaped like sliding wear (growing from the pitch point towards root and tip with the sliding
-  distance; Archard wear, Flodin & Andersson 1997) adds ``h (|2 p - 1| - 1/2)`` to the transmission
-  error over each mesh cycle (phase ``p``): odd mesh harmonics. The profile term has zero mean
-  (``-h/2`` at the pitch point), so in contact the mean transmission error grows by ``h`` (the
-  backlash) alone (docs/calibration.md Sec. 8.8).
+* ``tooth_wear``: wear depth ``h``: uniform removal ``h`` on the loaded flank (the half backlash
+  grows by ``h``) plus sliding wear (Archard 1953; Flodin & Andersson 1997) ``h |s - s_P| / max reach``
+  along the path of contact, zero at the pitch point, ``h`` at the far path end, load-share weighted
+  over the pairs in contact: mesh harmonics, and in contact the mean transmission error grows by ``h``
+  plus the profile's mean (1.40 h on the paper pair; docs/calibration.md Sec. 8.8).
 * ``gear_misalignment``: tooth lines of one wheel tilted (wobbling) about the middle of the face by
   an angle: axial mesh-force component at its order 1; once the tilt exceeds what the mesh
   deflection covers, an edge-loaded, softer mesh twice per revolution of that wheel.
@@ -257,7 +256,7 @@ class ToothWear(Effect):
     wear_depth_m: float = 0.0
     mesh: int = 1
     name: ClassVar[str] = "tooth_wear"
-    signature: ClassVar[str] = "odd mesh harmonics (1, 3, 5 ...) of the transmission error; larger backlash"
+    signature: ClassVar[str] = "mesh harmonics of the transmission error; larger backlash and DTE mean"
     specs: ClassVar[tuple[ParameterSpec, ...]] = (
         ParameterSpec("wear_depth_m", "m", 0.0, 100e-6, "amplitude", "wear depth"),
     )
