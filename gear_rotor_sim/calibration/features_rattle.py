@@ -207,10 +207,11 @@ def apply_rattle_uncertainty(
     for s, sh in enumerate(cmp.shafts):
         fams = locked_families(comb_chi2_by_order(cmp, nominal, score, s), sh.orders, sh.teeth)
         for j in fams:
-            cmp.leave_out_orders(s, sideband_family(sh.orders, sh.teeth) == j)
+            member = sideband_family(sh.orders, sh.teeth) == j
+            cmp.leave_out_orders(s, member)
             issues.append(
                 f"rattle: shaft {sh.name}: sideband family m z +- {j} (orders "
-                f"{', '.join(str(int(o)) for o in sh.orders[sideband_family(sh.orders, sh.teeth) == j])}) "
+                f"{', '.join(str(int(o)) for o in sh.orders[member])}) "
                 "holds a locked response component of the rattle that the model does not predict: left "
                 "out of the order features"
             )
