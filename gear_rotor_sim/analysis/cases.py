@@ -79,10 +79,12 @@ class Case:
         return f"{self.temperature_c:g} C, {self.bearing_type}, {bl}{extra}"
 
     def to_json(self) -> str:
+        """The case as JSON (saved with sweep results)."""
         return json.dumps(dataclasses.asdict(self))
 
     @staticmethod
     def from_json(text: str) -> Case:
+        """The case of :meth:`to_json` (``config`` defaults to ``paper_sun2021`` for older files)."""
         d = json.loads(text)
         return Case(
             float(d["temperature_c"]),

@@ -79,6 +79,7 @@ def set_blas_threads(n: int) -> list[int]:
 
 
 def restore_blas_threads(previous: list[int]) -> None:
+    """Give every loaded OpenBLAS back the thread count :func:`set_blas_threads` returned."""
     libs = [
         lib
         for lib in _openblas_libs()

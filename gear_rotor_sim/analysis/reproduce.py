@@ -128,6 +128,8 @@ class Plan:
 
     @staticmethod
     def level(name: str) -> Plan:
+        """The plan of level ``name`` (``"full"``, ``"quick"`` or ``"tiny"``); ValueError otherwise."""
+
         def grid(n: int) -> tuple[float, ...]:
             return tuple(float(s) for s in np.round(np.linspace(500.0, 20000.0, n), 1))
 
@@ -384,6 +386,7 @@ def _with_config(cases: list[Case], config: str) -> list[Case]:
 
 # ----------------------------------------------------------------------------------------------- CLI
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``gear-rotor-sim reproduce``."""
     parser.add_argument("--quick", action="store_true", help="coarser grid and shorter windows (< 5 min)")
     parser.add_argument(
         "--level", choices=("full", "quick", "tiny"), default=None, help="explicit level (tiny: tests)"
@@ -420,6 +423,7 @@ def _default_results(out: Path, level: str) -> dict[str, Any] | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gear-rotor-sim reproduce`` (compute, save, write REPRODUCTION.md, print); exit status."""
     level = args.level or ("quick" if args.quick else "full")
     config = getattr(args, "config", DEFAULT_CONFIG)
     plan = Plan.level(level)

@@ -14,7 +14,7 @@ import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -29,6 +29,9 @@ from gear_rotor_sim.analysis.bifurcation import (
 from gear_rotor_sim.analysis.paper_data import PANEL_TITLES, PANELS, PAPER_CHAOS, PAPER_FIG7, PAPER_FIG8
 from gear_rotor_sim.analysis.sweep import SweepResult, grid_cases, run_sweep
 from gear_rotor_sim.examples import PAPER_CONFIGS
+
+if TYPE_CHECKING:
+    from gear_rotor_sim.analysis.reproduce import Plan
 
 
 @dataclass(frozen=True)
@@ -207,7 +210,7 @@ def refine_main_band(
     }
 
 
-def sensitivity_study(plan: Any, runner: Runner, data_dir: Path, fig_dir: Path) -> list[dict[str, Any]]:
+def sensitivity_study(plan: Plan, runner: Runner, data_dir: Path, fig_dir: Path) -> list[dict[str, Any]]:
     """Bearing-2 RMS force of Fig 7 at 1000 and 14400 rpm with one unstated parameter changed at a time.
 
     Mesh damping ratio, friction coefficient and shaft Rayleigh damping (``stiffness_s``) at 25, 125
@@ -260,7 +263,7 @@ def sensitivity_study(plan: Any, runner: Runner, data_dir: Path, fig_dir: Path) 
 
 
 def stiffness_study(
-    plan: Any,
+    plan: Plan,
     bif: dict[str, BifurcationResult],
     s7: SweepResult,
     runner: Runner,
@@ -398,7 +401,7 @@ def stiffness_study(
     return out
 
 
-def single_speed_figures(fig_dir: Path, plan: Any) -> None:
+def single_speed_figures(fig_dir: Path, plan: Plan) -> None:
     """Phase portrait, Poincare map and spectra at representative speeds of Fig 6a."""
     from gear_rotor_sim.analysis import figures
     from gear_rotor_sim.analysis.bifurcation import build_system, mesh_period_s, steady_run
