@@ -1,5 +1,5 @@
-"""The chaotic-window algebra of the reproduction (analysis/bands.py) and the node's achieved
-real-time factor (ros/node_runtime.achieved_rtf), against intervals and rates worked out by hand."""
+"""The chaotic-window algebra of the reproduction (analysis/bands.py) against intervals worked out by
+hand."""
 
 from __future__ import annotations
 
@@ -72,18 +72,3 @@ def test_label_at_takes_the_nearest_grid_speed() -> None:
     )
     assert label_at(res, 2400.0) == "chaotic (2000 rpm)"
     assert label_at(res, 2600.0) == "period-2 (3000 rpm)"
-
-
-def test_achieved_rtf_over_the_last_three_seconds() -> None:
-    from gear_rotor_sim.ros.node_runtime import achieved_rtf
-
-    assert achieved_rtf([]) == 0.0 and achieved_rtf([(1.0, 2.0)]) == 0.0
-    # chunks every 0.5 s of wall time; simulated time runs at 2x until wall 8 s, then at 1x
-    walls = np.arange(0.5, 10.01, 0.5)
-    sims = np.where(walls <= 8.0, 2.0 * walls, 16.0 + (walls - 8.0))
-    window = list(zip(walls.tolist(), sims.tolist(), strict=True))
-    # last 3 s: wall 7 -> 10, simulated 14 -> 18
-    assert achieved_rtf(window) == pytest.approx(4.0 / 3.0, rel=1e-12)
-    assert achieved_rtf(window[:12]) == pytest.approx(2.0, rel=1e-12)  # wall up to 6 s: 2x throughout
-    # two chunks further apart than 3 s: their own rate
-    assert achieved_rtf([(0.0, 0.0), (5.0, 2.5)]) == pytest.approx(0.5, rel=1e-12)
