@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from gear_rotor_sim.calibration.comb_families import sideband_family
+from gear_rotor_sim.calibration.fault_path import path_channels
 from gear_rotor_sim.faults import BearingStiffnessDamping, Effect, MeshStiffnessDamping
 
 #: Plausible spread of the uncertain baseline (one run each): mesh stiffness and damping, bearing
@@ -192,6 +193,9 @@ def apply_rattle_uncertainty(
     cmp.channel_tolerance = channel_tolerances(nominal.order, var, cmp.v_order, cmp.s.tolerance)
     cmp.gains_held = True
     cmp.shift_held = True
+    # rule 5: a mesh fault's transfer to the bearing channels is a fitted nuisance (fault_path.py)
+    path = path_channels(cmp.names)
+    cmp.fault_path = path if bool(path.any()) and not bool(path.all()) else None
     issues.append(
         f"rattle: the healthy model's teeth separate {100 * contact_loss:.3g} % of the time; the order "
         f"features carry the model-form variance of a {len(ENSEMBLE)}-member baseline ensemble, and the "

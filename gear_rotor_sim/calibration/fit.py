@@ -54,6 +54,13 @@ from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalign
 from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_applies, refine_depth_by_ratios
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
+from gear_rotor_sim.calibration.fault_path import (
+    channels_chi2,
+    mesh_channels,
+    path_factors,
+    scale_channels,
+    with_path,
+)
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_window import model_window_samples
@@ -375,6 +382,25 @@ class Calibrator:
     def _chi2(self, feats: ModelFeatures) -> float:
         return self.cmp.score(feats).balanced_chi2
 
+    def _path_mask(self, e: Effect | None) -> np.ndarray | None:
+        """Bearing channels whose transfer of ``e``'s signature is a fitted nuisance: a damaged tooth
+        where the teeth separate (``fault_path.py``); None otherwise."""
+        mask = getattr(self.cmp, "fault_path", None)
+        return mask if isinstance(e, ToothDamage) and mask is not None else None
+
+    def _full_features(self, raw: np.ndarray, e: Effect | None = None) -> ModelFeatures:
+        """Features of a full run plus the correction left by an accepted effect whose bearing-channel
+        part was transferred by fitted factors; for ``e`` such an effect, its own change from the
+        current model transferred likewise (``fault_path.py``)."""
+        f = self._features(raw)
+        corr = getattr(self, "_feat_correction", None)
+        if corr is not None:
+            f = f.combo(corr, 1.0)
+        mask = self._path_mask(e)
+        if mask is not None:
+            f, self._path_a = with_path(self.cmp, self._cur_feat, f, mask)
+        return f
+
     def _raw(self, effects: Sequence[Effect]) -> np.ndarray:
         """Raw model channels of the baseline-updated machine (at the screened temperature) with
         ``effects``."""
@@ -657,6 +683,7 @@ class Calibrator:
         for d in depths:
             sigs[d] = self._signature(dataclasses.replace(e, tooth=1, depth=d))
         shifted: dict[tuple[float, int], ModelFeatures] = {}
+        mask = self._path_mask(e)
 
         def sig(d: float, i: int) -> ModelFeatures:
             xs = sorted(sigs)
@@ -671,13 +698,23 @@ class Calibrator:
                 if key not in shifted:
                     shifted[key] = self.cmp.shifted(sigs[p], i / fm, analytic=not self.cmp.env_non_sync)
                 out = out.combo(shifted[key], wt)
+            if mask is not None:
+                out = scale_channels(out, path_factors(self.cmp, cur, out, mask))
             return out
 
         # tooth index: best over two depths (at one fixed depth the envelope penalty of an overshoot
         # can favour a neighbouring tooth)
         best = (np.inf, 0)
+        at_mesh = mesh_channels(self.cmp.names) if mask is not None else None
+        if at_mesh is not None and not at_mesh.any():
+            at_mesh = None
+
+        def index_chi2(f: ModelFeatures) -> float:
+            # where the teeth separate the tooth comes from the channels at the mesh (fault_path.py)
+            return self._chi2(f) if at_mesh is None else channels_chi2(self.cmp, f, at_mesh)
+
         for i in range(z):
-            v = min(self._chi2(cur.combo(sig(d, i), 1.0)) for d in (0.2, 0.45))
+            v = min(index_chi2(cur.combo(sig(d, i), 1.0)) for d in (0.2, 0.45))
             if v < best[0]:
                 best = (v, i)
         i_best = best[1]
@@ -910,8 +947,15 @@ class Calibrator:
         e = fit.effect
         if isinstance(e, GearEccentricity | MassUnbalance | ShaftMisalignment | BearingDefect):
             raw = self._raw((*accepted, e))
-            return dataclasses.replace(fit, raw=raw, score=self.cmp.score(self._features(raw)))
-        if isinstance(e, ToothDamage):
+            f = self._full_features(raw)
+            return dataclasses.replace(fit, raw=raw, score=self.cmp.score(f), feats=f)
+        if isinstance(e, ToothDamage) and not (
+            self._path_mask(e) is not None and len(self.runner.cfg.meshes) == 1
+        ):
+            # on a single mesh the shifted signature is exact (whole hunting periods), so the check on
+            # full runs only repeats the search at one depth; where the teeth separate that depth's
+            # DTE comb prefers a neighbour of the tooth the two-depth search found (8000 rpm record,
+            # pinion tooth 7 at depth 0.435: tooth 6 by 3 % of the DTE's chi^2; fault_path.py)
             e = self._verify_tooth(e, accepted)
         main = e.specs[0]
         lower, upper = self._bounds(e)
@@ -928,7 +972,7 @@ class Calibrator:
             if any(abs(x - p[0]) < 1e-9 for p in pts):
                 return
             raw = self._raw((*accepted, e.with_parameters(**{main.name: x})))
-            pts.append((x, self.cmp.score(self._features(raw)).balanced_chi2, raw))
+            pts.append((x, self.cmp.score(self._full_features(raw, e)).balanced_chi2, raw))
 
         run(x0)
         if isinstance(e, TemperatureOffset) and self.fit.refine_steps > 0:
@@ -971,7 +1015,8 @@ class Calibrator:
             # the scale-free sideband energy ratios of the named tooth (candidates_tooth.py)
             rd = refine_depth_by_ratios(self, eff, accepted)
             if rd is not None:
-                score = self.cmp.score(self._features(rd.raw))
+                fr = self._full_features(rd.raw, rd.effect)
+                score = self.cmp.score(fr)
                 chi_abs = min(p[1] for p in pts)
                 # the ratio depth with the mesh scale it implies must explain the whole record better
                 # than the absolute depth at the current scale (BIC, one parameter more)
@@ -984,6 +1029,7 @@ class Calibrator:
                         raw=rd.raw,
                         score=score,
                         uncertainty=unc,
+                        feats=fr,
                         baseline_set=rd.mesh_set,
                     )
                 self.notes.append(
@@ -991,7 +1037,19 @@ class Calibrator:
                     f"it implies the record is explained worse (chi2 {score.balanced_chi2:.4g}) than at the "
                     f"absolute depth {eff.depth:.3g} (chi2 {chi_abs:.4g})"
                 )
-        return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(self._features(rb)))
+        fb = self._full_features(rb, eff)
+        if self._path_mask(eff) is not None:
+            self.notes.append(
+                f"{eff.label} at depth {xb:.3g}: its response at the bearing channels taken as the model's "
+                "times a fitted transfer factor ("
+                + ", ".join(
+                    f"{n} {a:.2g}"
+                    for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(eff), strict=True)
+                    if m
+                )
+                + "; fault_path.py): the depth and the tooth are set by the channels at the mesh"
+            )
+        return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
 
     def _verify_tooth(self, e: ToothDamage, accepted: list[Effect]) -> ToothDamage:
         """The tooth and its two neighbours compared on full simulations at the fitted depth.
@@ -1007,11 +1065,21 @@ class Calibrator:
         mesh = cfg.meshes[e.mesh - 1]
         z = int(mesh.pinion_teeth if e.wheel == "pinion" else mesh.gear_teeth)
         teeth = dict.fromkeys((e.tooth - 1 + k) % z + 1 for k in (0, -1, 1))
+        at_mesh = mesh_channels(self.cmp.names) if self._path_mask(e) is not None else None
+        if at_mesh is not None and not at_mesh.any():
+            at_mesh = None
         scored = []
         for t in teeth:
             cand = dataclasses.replace(e, tooth=t)
             raw = self._raw((*accepted, cand))
-            scored.append((self.cmp.score(self._features(raw)).balanced_chi2, t, cand))
+            f = self._full_features(raw, cand)
+            # where the teeth separate the tooth comes from the channels at the mesh (fault_path.py)
+            v = (
+                channels_chi2(self.cmp, f, at_mesh)
+                if at_mesh is not None
+                else self.cmp.score(f).balanced_chi2
+            )
+            scored.append((v, t, cand))
         best = min(scored, key=lambda x: x[0])
         if best[1] != e.tooth:
             self.notes.append(
@@ -1189,7 +1257,15 @@ class Calibrator:
         self.cmp.fix_transfer(None)
         self.cmp.fix_transfer(self.cmp.score(feats).slopes)
 
+    def _accept_features(self, ver: CandidateFit) -> ModelFeatures:
+        """Features of the model with an accepted candidate (its verified full run, with a bearing-channel
+        transfer where ``fault_path.py`` applies); keeps the correction for later full runs."""
+        feats = ver.feats if ver.feats is not None else self._full_features(ver.raw)
+        self._feat_correction = feats.combo(self._features(ver.raw), -1.0)
+        return feats
+
     def run(self) -> CalibrationResult:
+        self._feat_correction: ModelFeatures | None = None
         base_out = self._setup()
         if self.rattle_rules:
             # where the teeth separate: honest order uncertainties (features_rattle.py)
@@ -1448,7 +1524,7 @@ class Calibrator:
                 self._sig_checked.clear()
                 self.base_raw = self._raw(())
                 cur_raw = ver.raw
-                cur_feat = self._features(cur_raw)
+                cur_feat = self._accept_features(ver)
                 self._refit_transfer(cur_feat)
                 if self.fixed_carrier_tolerance is None:
                     ctol = self._carrier_floor(cur_feat, self.cmp.score(cur_feat))
@@ -1476,7 +1552,7 @@ class Calibrator:
             )
             accepted.append(ver.effect)
             cur_raw = ver.raw
-            cur_feat = self._features(cur_raw)
+            cur_feat = self._accept_features(ver)
             if ver.baseline_set is not None:
                 # fitted with the effect (candidates_tooth.py): the machine's nominal value changes
                 b = ver.baseline_set
