@@ -51,6 +51,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
+from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_applies, refine_depth_by_ratios
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
 from gear_rotor_sim.calibration.fault_path import (
@@ -128,6 +129,8 @@ class CandidateFit:
     explained: float = 0.0
     feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
     comb_explained: float = 0.0  # share of the order-comb excess explained (tooth damage)
+    #: a baseline set fitted with the effect (a tooth's ratio depth held: the mesh stiffness scale)
+    baseline_set: Effect | None = None
 
     @property
     def name(self) -> str:
@@ -1007,6 +1010,33 @@ class Calibrator:
                     break
         xb, _, rb = min(pts, key=lambda t: t[1])
         eff = e.with_parameters(**{main.name: xb})
+        if isinstance(eff, ToothDamage) and ratio_depth_applies(self):
+            # without a reference the mesh stiffness scale is not identified: the depth is read from
+            # the scale-free sideband energy ratios of the named tooth (candidates_tooth.py)
+            rd = refine_depth_by_ratios(self, eff, accepted)
+            if rd is not None:
+                fr = self._full_features(rd.raw, rd.effect)
+                score = self.cmp.score(fr)
+                chi_abs = min(p[1] for p in pts)
+                # the ratio depth with the mesh scale it implies must explain the whole record better
+                # than the absolute depth at the current scale (BIC, one parameter more)
+                penalty = math.log(self.n_total) if rd.mesh_set is not None else 0.0
+                if score.balanced_chi2 + penalty < chi_abs:
+                    unc = {**fit.uncertainty, "depth": rd.sigma}
+                    return dataclasses.replace(
+                        fit,
+                        effect=rd.effect,
+                        raw=rd.raw,
+                        score=score,
+                        uncertainty=unc,
+                        feats=fr,
+                        baseline_set=rd.mesh_set,
+                    )
+                self.notes.append(
+                    f"{eff.label}: the ratio depth {rd.effect.depth:.3g} is not used: with the mesh scale "
+                    f"it implies the record is explained worse (chi2 {score.balanced_chi2:.4g}) than at the "
+                    f"absolute depth {eff.depth:.3g} (chi2 {chi_abs:.4g})"
+                )
         fb = self._full_features(rb, eff)
         if self._path_mask(eff) is not None:
             self.notes.append(
@@ -1523,6 +1553,33 @@ class Calibrator:
             accepted.append(ver.effect)
             cur_raw = ver.raw
             cur_feat = self._accept_features(ver)
+            if ver.baseline_set is not None:
+                # fitted with the effect (candidates_tooth.py): the machine's nominal value changes
+                b = ver.baseline_set
+                baseline_updates.append(
+                    FoundEffect(
+                        effect_name(b),
+                        b.label,
+                        b.parameters(),
+                        {},
+                        float(p_model),
+                        float(ver.delta_bic),
+                        float(ver.explained),
+                        cur_score.error,
+                        ver.score.error,
+                        b,
+                        "baseline",
+                    )
+                )
+                self.log(f"baseline {b.label} {b.parameters()} with {ver.effect.label}")
+                self.baseline.append(b)
+                self._sig_cache.clear()
+                self._sig_checked.clear()
+                self.base_raw = self._raw(())
+                self._refit_transfer(cur_feat)
+                if self.fixed_carrier_tolerance is None:
+                    ctol = self._carrier_floor(cur_feat, self.cmp.score(cur_feat))
+                    self.cmp.set_carrier_tolerance(ctol)
             cur_score = self.cmp.score(cur_feat)
         else:
             conclusion = f"stopped after {self.fit.max_effects} effects"
