@@ -15,21 +15,10 @@ Mesh phase
     enters contact at ``s_A``; pair j (j = 0, 1, ...) is at ``s_A + (phase + j) p_b`` and is in contact
     while that is <= ``s_E``. For 1 < eps < 2 two pairs share the load for ``phase < eps - 1``.
 
-Mesh stiffness (Eqs 13-15, Ref [35]: Yang & Lin 1987, Tian 2004, Chaari et al. 2009, Sainsot et al. 2004)
-    Each tooth is a cantilever of variable section on its foundation circle, loaded at the contact
-    point by a unit force along the line of action. With ``alpha_1`` the angle between the force and
-    the normal to the tooth centre line, ``y`` the coordinate along the centre line, ``h(y)`` the
-    half tooth thickness, ``I = 2 h^3 L / 3``, ``A = 2 h L`` (plane-stress beam, modulus E*, G* at
-    the gear temperature):
-
-    * bending ``1/k_b = int [(y_k - y) cos(alpha_1) - h_k sin(alpha_1)]^2 / (E I) dy``
-    * shear ``1/k_s = int 1.2 cos^2(alpha_1) / (G A) dy``
-    * axial compression ``1/k_a = int sin^2(alpha_1) / (E A) dy``
-    * Hertzian contact ``1/k_h = 2 / (pi L) [(1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2]``, which is
-      ``k_h = pi E L / (4 (1 - nu^2))`` for equal materials.
-    * fillet foundation (Sainsot, Velex, Duverger 2004):
-      ``1/k_f = cos^2(alpha_1)/(E L) [L* (u_f/S_f)^2 + M* (u_f/S_f) + P* (1 + Q* tan^2(alpha_1))]``
-      with the published polynomial coefficients of ``h_f = r_f / r_int`` and ``theta_f``.
+Mesh stiffness (Eqs 13-15)
+    :meth:`SpurGearPair.mesh_stiffness_table` combines the tooth compliances of
+    :mod:`gear_rotor_sim.tooth_stiffness` (bending, shear, axial, Hertzian contact, fillet foundation;
+    the equations and references are there) over the pairs in contact at each mesh phase.
 
     Profile below the base circle (root radius < base radius, e.g. the 29-tooth pinion): the flank
     between the root circle and the base circle is the straight extension of the base-circle half
@@ -38,15 +27,6 @@ Mesh stiffness (Eqs 13-15, Ref [35]: Yang & Lin 1987, Tian 2004, Chaari et al. 2
     the involute at the root circle. The involute part is parametrised by the roll parameter
     ``t = tan(alpha_r)`` (smooth), the straight part by y; both are integrated with vectorised
     Gauss-Legendre quadrature when a table is built, never inside a time loop.
-
-    Combination (Eqs 13-14): pair i has ``k_t^i = 1/(1/k_h + 1/k_r1 + 1/k_r2)`` with
-    ``1/k_r = 1/k_b + 1/k_s + 1/k_a`` (Eq 15); ``k_tooth = sum_i k_t^i``; the fillet foundations of the
-    teeth in contact act in parallel, ``k_fj = sum_i k_fj^i``; and
-    ``K* = 1/(1/k_tooth + 1/(lambda_1 k_f1) + 1/(lambda_2 k_f2))``. The correction coefficients
-    ``lambda_1, lambda_2`` (Eq 13) default to 1: the paper gives no values, and with lambda = 1 the
-    single-contact stiffness is exactly the classical series form. Values < 1 model the coupling of the
-    foundations of adjacent loaded teeth in double contact (Xie et al. 2018, Mech. Syst. Signal
-    Process. 111, 331-347). Load share of pair i: ``k_t^i / k_tooth`` (equal mesh deflection).
 
 Thermal profile error and backlash (Eqs 16-18, 27)
     ``de = dT l r_b inv(alpha_k) - dT l r_b (s/r + 2 inv(alpha)) / 2`` (Eq 18, l the linear expansion
@@ -71,20 +51,13 @@ from typing import Any
 
 import numpy as np
 
-# Sainsot et al. (2004), Table 1: X*(h_f, theta_f) = A/theta_f^2 + B h_f^2 + C h_f/theta_f + D/theta_f
-# + E h_f + F for X* = L*, M*, P*, Q* (rows).
-SAINSOT_COEFFICIENTS = np.array(
-    [
-        [-5.574e-5, -1.9986e-3, -2.3015e-4, 4.7702e-3, 0.0271, 6.8045],  # L*
-        [60.111e-5, 28.100e-3, -83.431e-4, -9.9256e-3, 0.1624, 0.9086],  # M*
-        [-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236],  # P*
-        [-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904],  # Q*
-    ]
+from gear_rotor_sim.tooth_stiffness import (
+    MeshStiffnessTable,
+    ToothCompliance,
+    beam_compliances,
+    iso_mesh_stiffness,
+    sainsot_fillet_compliance,
 )
-
-# ISO 6336-1:2019 Eq 9.4 coefficients C1..C9 of q' (mm um / N) for the theoretical single stiffness.
-ISO_Q_COEFFICIENTS = (0.04723, 0.15551, 0.25791, -0.00635, -0.11654, -0.00193, -0.24188, 0.00529, 0.00182)
-ISO_STEEL_MODULUS = 206.0e9  # E_st of ISO 6336-1 (Pa); c' scales with E/E_st for other materials
 
 _GAUSS_ORDER = 24
 
@@ -94,7 +67,9 @@ def involute(alpha: float | np.ndarray) -> float | np.ndarray:
     return np.tan(alpha) - alpha
 
 
-def _contact_ratio_closed_form(z1: int, z2: int, m: float, alpha: float, ha: float) -> float:
+def contact_ratio_closed_form(z1: int, z2: int, m: float, alpha: float, ha: float) -> float:
+    """Contact ratio of a standard pair from the tip and base circles (ISO 21771):
+    ``(sqrt(r_a1^2 - r_b1^2) + sqrt(r_a2^2 - r_b2^2) - a sin(alpha)) / (pi m cos(alpha))``."""
     r1, r2 = m * z1 / 2.0, m * z2 / 2.0
     rb1, rb2 = r1 * math.cos(alpha), r2 * math.cos(alpha)
     ra1, ra2 = r1 + ha * m, r2 + ha * m
@@ -180,163 +155,11 @@ def validate_pair(
             f"pinion_teeth/gear_teeth: {pinion_teeth}/{gear_teeth}: a tip circle reaches beyond the mating "
             "base-circle tangency point (involute interference); use more pinion teeth"
         )
-    eps = _contact_ratio_closed_form(pinion_teeth, gear_teeth, module, pressure_angle, addendum_coefficient)
+    eps = contact_ratio_closed_form(pinion_teeth, gear_teeth, module, pressure_angle, addendum_coefficient)
     if eps < 1.0:
         raise ValueError(
             f"pinion_teeth/gear_teeth/addendum_coefficient: contact ratio {eps:.3f} < 1 (must be >= 1)"
         )
-
-
-@dataclass(frozen=True)
-class ToothCompliance:
-    """Compliances (m/N) of one gear's tooth at contact points: bending, shear, axial, fillet."""
-
-    bending: np.ndarray
-    shear: np.ndarray
-    axial: np.ndarray
-    fillet: np.ndarray
-
-    @property
-    def tooth(self) -> np.ndarray:
-        """1/k_r = 1/k_b + 1/k_s + 1/k_a (Eq 15)."""
-        return self.bending + self.shear + self.axial
-
-
-def beam_compliances(
-    y: np.ndarray,
-    weights: np.ndarray,
-    half_thickness: np.ndarray,
-    y_contact: np.ndarray,
-    h_contact: np.ndarray,
-    alpha1: np.ndarray,
-    youngs_modulus: float,
-    shear_modulus: float,
-    face_width: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Potential-energy compliances of a variable-section cantilever tooth (Eq 15 terms).
-
-    Parameters
-    ----------
-    y, weights, half_thickness : ndarray, shape (n, q)
-        Quadrature abscissae along the centre line (m), weights (dy, m) and half thickness h(y) (m).
-    y_contact, h_contact, alpha1 : ndarray, shape (n,)
-        Centre-line coordinate and half thickness of the contact point, and the load angle alpha_1.
-    youngs_modulus, shear_modulus : float
-        E*, G* (Pa).
-    face_width : float
-        L (m).
-
-    Returns
-    -------
-    (1/k_b, 1/k_s, 1/k_a) : tuple of ndarray, shape (n,), m/N.
-
-    References
-    ----------
-    Sun et al. (2021) Eq 15; Yang & Lin (1987); Tian (2004): U_b = int M^2/(2EI), U_s = int 1.2 F_b^2/(2GA),
-    U_a = int F_a^2/(2EA).
-    """
-    c = np.cos(alpha1)[:, None]
-    s = np.sin(alpha1)[:, None]
-    moment = (y_contact[:, None] - y) * c - h_contact[:, None] * s
-    inertia = 2.0 * half_thickness**3 * face_width / 3.0
-    area = 2.0 * half_thickness * face_width
-    kb = np.sum(weights * moment**2 / (youngs_modulus * inertia), axis=1)
-    ks = np.sum(weights * 1.2 * c**2 / (shear_modulus * area), axis=1)
-    ka = np.sum(weights * s**2 / (youngs_modulus * area), axis=1)
-    return kb, ks, ka
-
-
-def sainsot_fillet_compliance(
-    alpha1: np.ndarray,
-    u_f: np.ndarray,
-    s_f: float,
-    theta_f: float,
-    h_f: float,
-    youngs_modulus: float,
-    face_width: float,
-) -> np.ndarray:
-    """Fillet-foundation compliance 1/k_f of Sainsot, Velex, Duverger (2004), m/N.
-
-    ``1/k_f = cos^2(alpha_1)/(E L) [L* (u_f/S_f)^2 + M* (u_f/S_f) + P* (1 + Q* tan^2(alpha_1))]``,
-    ``X* = A/theta_f^2 + B h_f^2 + C h_f/theta_f + D/theta_f + E h_f + F`` (``SAINSOT_COEFFICIENTS``).
-
-    References
-    ----------
-    Sainsot et al. (2004) J. Mech. Des. 126, 748-752, Eq 7 and Table 1; Sun et al. (2021) Eq 13 (k_f).
-    """
-    basis = np.array([1.0 / theta_f**2, h_f**2, h_f / theta_f, 1.0 / theta_f, h_f, 1.0])
-    lstar, mstar, pstar, qstar = SAINSOT_COEFFICIENTS @ basis
-    ratio = u_f / s_f
-    return (np.cos(alpha1) ** 2 / (youngs_modulus * face_width)) * (
-        lstar * ratio**2 + mstar * ratio + pstar * (1.0 + qstar * np.tan(alpha1) ** 2)
-    )
-
-
-@dataclass(frozen=True)
-class MeshStiffnessTable:
-    """Mesh stiffness and contact kinematics over one mesh period at one temperature (Eqs 13-15).
-
-    Attributes
-    ----------
-    temperature_c : float
-        Gear temperature of the table, deg C.
-    phase : ndarray, shape (n,)
-        Uniform mesh-phase grid on [0, 1).
-    stiffness : ndarray, shape (n,)
-        K* (Eq 13), N/m.
-    n_pairs : ndarray of int, shape (n,)
-        Tooth pairs in contact.
-    load_share : ndarray, shape (n, p)
-        Share of the mesh force carried by pair j (0 where not in contact; rows sum to 1).
-    contact_position : ndarray, shape (n, p)
-        Contact point of pair j along the line of action, measured from the pinion's base-circle
-        tangency point T1, m (NaN where not in contact). The gear's arm is ``line_of_action_length - s``.
-    sliding_sign : ndarray, shape (n, p)
-        sign(s - s_P): direction of the pinion's sliding relative to the gear along the off-line-of-action
-        direction ``t`` (see elements/mesh.py); -1 before, +1 after the pitch point, 0 where not in contact.
-    pitch_point : float
-        s_P = r_b1 tan(alpha), m.
-    line_of_action_length : float
-        T1T2 = a sin(alpha), m.
-    contact_ratio : float
-    base_pitch : float
-        m.
-    """
-
-    temperature_c: float
-    phase: np.ndarray
-    stiffness: np.ndarray
-    n_pairs: np.ndarray
-    load_share: np.ndarray
-    contact_position: np.ndarray
-    sliding_sign: np.ndarray
-    pitch_point: float
-    line_of_action_length: float
-    contact_ratio: float
-    base_pitch: float
-
-    @property
-    def mean(self) -> float:
-        """Mean mesh stiffness over one period, N/m."""
-        return float(np.mean(self.stiffness))
-
-    @property
-    def min(self) -> float:
-        return float(np.min(self.stiffness))
-
-    @property
-    def max(self) -> float:
-        return float(np.max(self.stiffness))
-
-    @property
-    def double_contact_fraction(self) -> float:
-        """Fraction of the period with more than one pair in contact (= eps - 1 for 1 < eps < 2)."""
-        return float(np.mean(self.n_pairs > 1))
-
-    def interpolate(self, phase: np.ndarray | float, values: np.ndarray | None = None) -> np.ndarray:
-        """Periodic linear interpolation of ``values`` (default the stiffness) at mesh ``phase``."""
-        v = self.stiffness if values is None else values
-        return np.interp(np.asarray(phase, dtype=float), self.phase, v, period=1.0)
 
 
 @dataclass(frozen=True)
@@ -666,31 +489,15 @@ class SpurGearPair:
         return np.array(sorted(out))
 
     def iso_mesh_stiffness(self, temperature_c: float | None = None) -> dict[str, float]:
-        """ISO 6336-1 single stiffness c' and mesh stiffness c_gamma_alpha (spur, no profile shift).
-
-        ``q' = C1 + C2/z1 + C3/z2`` (mm um/N), ``c'_th = 1/q'``, ``c' = c'_th C_M C_R C_B`` with
-        C_M = 0.8, C_R = 1 (solid disc), C_B = 1 (standard basic rack), and
-        ``c_gamma_alpha = c' (0.75 eps_alpha + 0.25)``; both scaled by ``E/E_st`` (E_st = 206 GPa, ISO's
-        rule for other materials) with ``E = 2 E1 E2/(E1 + E2)`` at ``temperature_c`` when given.
-
-        Returns
-        -------
-        dict with ``c_prime`` and ``c_gamma_alpha`` (N/m per m of face width, i.e. Pa) and
-        ``mesh_stiffness`` = c_gamma_alpha * b (N/m).
-
-        References
-        ----------
-        ISO 6336-1:2019, Eqs 9.1-9.4, 9.10 (valid for F_t/b >= 100 N/mm).
-        """
-        c = ISO_Q_COEFFICIENTS
-        q = c[0] + c[1] / self.pinion_teeth + c[2] / self.gear_teeth  # x1 = x2 = 0
-        c_prime = (1.0 / q) * 0.8 * 1.0 * 1.0 * 1e9  # N/(mm um) -> N/m^2
+        """ISO 6336-1 c', c_gamma_alpha and mesh stiffness of this pair
+        (:func:`gear_rotor_sim.tooth_stiffness.iso_mesh_stiffness`), with E at ``temperature_c`` if given."""
+        e = None
         if temperature_c is not None:
-            e1 = self.material_pinion.youngs_modulus(temperature_c)
-            e2 = self.material_gear.youngs_modulus(temperature_c)
-            c_prime *= (2.0 * e1 * e2 / (e1 + e2)) / ISO_STEEL_MODULUS
-        c_gamma = c_prime * (0.75 * self.contact_ratio + 0.25)
-        return {"c_prime": c_prime, "c_gamma_alpha": c_gamma, "mesh_stiffness": c_gamma * self.face_width}
+            e = (
+                self.material_pinion.youngs_modulus(temperature_c),
+                self.material_gear.youngs_modulus(temperature_c),
+            )
+        return iso_mesh_stiffness(self.pinion_teeth, self.gear_teeth, self.contact_ratio, self.face_width, e)
 
     # -- thermal profile error and backlash --------------------------------------------------------
     def thermal_profile_error(
@@ -783,77 +590,3 @@ def paper_gear_pair(material: Any, bore_diameter: float = 0.030, **changes: Any)
     }
     kwargs.update(changes)
     return SpurGearPair(**kwargs)
-
-
-def validation_rows(material: Any = None) -> list[dict[str, Any]]:
-    """Rows for docs/validation.md, section "Mesh stiffness and gears".
-
-    Each row: ``check``, ``reference`` (independent value and its source), ``ours``, ``error``.
-
-    References
-    ----------
-    ISO 6336-1:2019 Sec 9; Sun et al. (2021) Eqs 13-18, 27; textbook contact ratio (ISO 21771).
-    """
-    if material is None:
-        from gear_rotor_sim.materials import carbon_steel
-
-        material = carbon_steel()
-    pair = paper_gear_pair(material)
-    rows: list[dict[str, Any]] = []
-    alpha = pair.pressure_angle
-    eps_ref = _contact_ratio_closed_form(29, 49, 3e-3, alpha, 1.0)
-    t25 = pair.mesh_stiffness_table(25.0)
-    t225 = pair.mesh_stiffness_table(225.0)
-    eps_ours = 1.0 + t25.double_contact_fraction
-    rows.append(
-        {
-            "check": "contact ratio 29/49, m 3 mm, 20 deg (from the TVMS double-contact fraction + 1)",
-            "reference": f"{eps_ref:.4f} (closed form)",
-            "ours": f"{eps_ours:.4f}",
-            "error": f"{abs(eps_ours - eps_ref):.1e} (grid 1/{t25.phase.size})",
-        }
-    )
-    for table in (t25, t225):
-        iso = pair.iso_mesh_stiffness(table.temperature_c)["mesh_stiffness"]
-        rows.append(
-            {
-                "check": f"mean mesh stiffness at {table.temperature_c:g} C vs ISO 6336-1 c_gamma_alpha b",
-                "reference": f"{iso:.4e} N/m",
-                "ours": f"{table.mean:.4e} N/m",
-                "error": f"ratio {table.mean / iso:.3f} (band 0.70..1.30)",
-            }
-        )
-    e25, e225 = material.youngs_modulus(25.0), material.youngs_modulus(225.0)
-    rows.append(
-        {
-            "check": "mean stiffness ratio k(225 C)/k(25 C) vs E(225)/E(25)",
-            "reference": f"{e225 / e25:.4f}",
-            "ours": f"{t225.mean / t25.mean:.4f}",
-            "error": f"{(t225.mean / t25.mean) / (e225 / e25) - 1.0:+.2%} (nu(T) effect)",
-        }
-    )
-    dt = 200.0
-    lam = material.expansion_coefficient
-    for pinion, name in ((True, "pinion"), (False, "gear")):
-        ref = -dt * lam * pair.base_radius(pinion) * math.pi / (2.0 * pair.teeth(pinion))
-        ours = pair.thermal_profile_error(225.0, 25.0, pinion)
-        rows.append(
-            {
-                "check": f"thermal profile error {name} at 225 C, pitch point (Eq 18)",
-                "reference": f"{ref * 1e6:.4f} um (-dT l r_b pi/(2z))",
-                "ours": f"{ours * 1e6:.4f} um",
-                "error": f"{abs(ours / ref - 1.0):.1e}",
-            }
-        )
-    b = 35e-6
-    ref_b = b - dt * lam * math.pi * pair.module * math.cos(alpha) / 4.0
-    ours_b = pair.thermal_half_backlash(b, 225.0, 25.0)
-    rows.append(
-        {
-            "check": "thermal half backlash b* at 225 C, b = 35 um (Eq 27)",
-            "reference": f"{ref_b * 1e6:.4f} um (b - dT l pi m cos(alpha)/4)",
-            "ours": f"{ours_b * 1e6:.4f} um",
-            "error": f"{abs(ours_b / ref_b - 1.0):.1e}",
-        }
-    )
-    return rows

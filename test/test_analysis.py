@@ -16,6 +16,7 @@ from gear_rotor_sim.analysis.classify import (
     cluster_count,
     zero_one_test,
 )
+from gear_rotor_sim.analysis.parallel import tick
 from gear_rotor_sim.analysis.poincare import phase_portrait, poincare_at_times, poincare_samples
 from gear_rotor_sim.analysis.signals import (
     amplitude_spectrum,
@@ -185,7 +186,7 @@ def _duffing_segment(case, speeds, settings, channels, reducer):  # type: ignore
         state = y
         data = x[-settings.n_periods * spm :, None].repeat(len(channels), axis=1)
         rows.append(reducer(data, channels, settings, h))
-        bif._tick()
+        tick()  # the progress line of execute_tasks
     out = {k: np.stack([r[k] for r in rows]) for k in rows[0]}
     out["wall_s"] = np.zeros(len(speeds))
     return out

@@ -314,7 +314,15 @@ def test_bearing_impulse_rate_load_zone_and_slip() -> None:
     t = np.arange(int(1.0 * fs)) / fs
     ctx = _ctx(omega * t, omega)
     for kind, key in (("outer", "bpfo"), ("inner", "bpfi"), ("ball", "bsf")):
-        d = BearingDefect(kind=kind, bearing=1, force_n=10.0, geometry=BEARING_6205, slip=0.0, pulse_s=1e-4)
+        d = BearingDefect(
+            kind=kind,
+            bearing=1,
+            force_n=10.0,
+            geometry=BEARING_6205,
+            slip=0.0,
+            pulse_s=1e-4,
+            load_angle_rad=-np.pi / 2,
+        )
         f = np.hypot(*d.force_amplitudes(ctx).T)
         starts = np.flatnonzero((f[1:] > 0) & (f[:-1] == 0))
         rate = BEARING_6205.multiples()[key] * shaft_hz * (2.0 if kind == "ball" else 1.0)

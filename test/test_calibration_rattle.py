@@ -66,16 +66,57 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return out
 
 
-def test_hunting_period_and_window() -> None:
-    """29/49 teeth: the same pair meets again after 49 pinion revolutions (0.3675 s at 8000 rpm)."""
+def _mesh_cycles_until_the_same_pair_meets(z_pinion: int, z_gear: int) -> int:
+    """Count mesh cycles until pinion tooth 0 meets gear tooth 0 again (each cycle moves both wheels
+    on by one tooth): the hunting period's definition, counted, not computed with an lcm."""
+    k, p, g = 0, 0, 0
+    while True:
+        k, p, g = k + 1, (p + 1) % z_pinion, (g + 1) % z_gear
+        if p == 0 and g == 0:
+            return k
+
+
+def _with_teeth(z_pinion: int, z_gear: int):
+    """The paper rig with other tooth counts (same geometry otherwise)."""
+    import yaml
+
+    raw = yaml.safe_load((Path(__file__).parents[1] / "config" / "paper_sun2021.yaml").read_text())
+    for gear, z in zip(raw["gears"], (z_pinion, z_gear), strict=True):
+        gear["teeth"] = z
+    return load_config(raw)
+
+
+@pytest.mark.parametrize(
+    ("teeth", "cycles", "speed_rpm", "period_s"),
+    [
+        # the paper's 29/49 wheels: 1421 mesh cycles = 49 pinion / 29 gear revolutions;
+        # at 8000 rpm the mesh frequency is 29 x 8000 / 60 = 3866.7 Hz: 1421 / 3866.7 = 0.3675 s
+        ((29, 49), 1421, 8000.0, 0.3675),
+        ((29, 49), 1421, 3000.0, 0.98),  # 1421 / (29 x 50 Hz)
+        # a common factor: 30/50 teeth meet again after 150 cycles (5 pinion revolutions), not 1500
+        ((30, 50), 150, 6000.0, 0.05),  # 150 / (30 x 100 Hz)
+    ],
+)
+def test_hunting_period_is_the_same_tooth_pair_meeting_again(
+    teeth: tuple[int, int], cycles: int, speed_rpm: float, period_s: float
+) -> None:
+    """The hunting period is the time after which the same pinion tooth meets the same gear tooth
+    again: that many mesh cycles (counted) at the mesh frequency z_p n / 60 of the input shaft."""
+    assert _mesh_cycles_until_the_same_pair_meets(*teeth) == cycles
+    cfg = load_config("paper_sun2021") if teeth == (29, 49) else _with_teeth(*teeth)
+    f_mesh = teeth[0] * speed_rpm / 60.0
+    assert hunting_period_s(cfg, speed_rpm) == pytest.approx(cycles / f_mesh, rel=1e-12)
+    assert hunting_period_s(cfg, speed_rpm) == pytest.approx(period_s, rel=1e-12)
+
+
+def test_model_window_covers_one_hunting_period_and_stays_within_the_record() -> None:
+    """At 8000 rpm one hunting period (0.3675 s) is above the 0.3 s minimum: the window is that period
+    plus a quarter revolution of the slowest shaft (the gear: 60 / 8000 x 49 / 29 / 4 = 3.168 ms),
+    i.e. 0.37067 s = 7414 samples at 20 kHz (rounded up), far below the 2 s record; never beyond a
+    shorter record."""
     cfg = load_config("paper_sun2021")
-    th = hunting_period_s(cfg, RATTLE_RPM)
-    assert th == pytest.approx(49 / (RATTLE_RPM / 60.0), rel=1e-12)
-    n = model_window_samples(cfg, RATTLE_RPM, 20000.0, 40000)
-    # one hunting period (>= 0.3 s) plus a quarter gear revolution, far below the 2 s record
-    f_gear = RATTLE_RPM / 60.0 * 29 / 49
-    assert n == int(np.ceil((th + 0.25 / f_gear) * 20000.0))
-    assert model_window_samples(cfg, RATTLE_RPM, 20000.0, 5000) == 5000  # never beyond the record
+    assert model_window_samples(cfg, RATTLE_RPM, 20000.0, 40000) == 7414
+    assert model_window_samples(cfg, RATTLE_RPM, 20000.0, 5000) == 5000
 
 
 def test_sideband_families() -> None:

@@ -6,8 +6,9 @@ Sec. 8.8).
   for the angle) finds the angle within 25 % and explains the record better on the gear than on the
   pinion (the axial force sits at the gear's order 1).
 * The rule that a mesh-periodic candidate (wear, misalignment) must gain on the synchronous features:
-  the balanced weights of ``Score.balanced_chi2`` computed by hand on constructed scores; an
-  envelope-only gain (the healthy 225 C record's tooth-wear claim) is refused.
+  properties of the balanced weights of ``Score.balanced_chi2`` on random records (envelope gains are
+  not synchronous, gains add, equal gain per feature weighs equally across families), and an
+  envelope-only gain (the kind of the healthy 225 C record's tooth-wear claim) refused however large.
 """
 
 from __future__ import annotations
@@ -50,30 +51,86 @@ def test_misalignment_angle_from_an_independent_record(misaligned: Path) -> None
     assert gear.score.balanced_chi2 < cal.cmp.score(cur).balanced_chi2
 
 
-def _score(order: float, envelope: float, static: float) -> Score:
-    chi2 = {"order": order, "envelope": envelope, "static": static}
-    n = {"order": 1080, "envelope": 354, "static": 4}
-    return Score(chi2, n, np.ones(6), {}, {})
+FAMILIES = ("order", "envelope", "static")
 
 
-def test_periodic_candidates_need_synchronous_evidence() -> None:
-    before = _score(1.113e5, 1.461e6, 522.0)
-    # by hand: the spectral families are balanced to equal counts (1434 / 2 each), static weight 1
-    w_order, w_env = 1434 / (2 * 1080), 1434 / (2 * 354)
-    envelope_only = _score(1.124e5, 1.078e6, 522.0)  # the 225 C record's wear candidate
-    sync, whole = synchronous_gain(before, envelope_only)
-    assert math.isclose(sync, w_order * (1.113e5 - 1.124e5), rel_tol=1e-12)
-    assert math.isclose(whole, w_order * (1.113e5 - 1.124e5) + w_env * (1.461e6 - 1.078e6), rel_tol=1e-12)
-    cal = SimpleNamespace(fit=FitSettings(), notes=[])
-    fit = CandidateFit(ToothWear(wear_depth_m=2.2e-6), envelope_only, None, 1, {})
-    assert not periodic_signature_present(cal, fit, before)
-    assert "synchronous features" in cal.notes[-1]
-    on_orders = _score(0.6e5, 1.46e6, 100.0)  # the gain sits on the orders and the channel means
-    assert periodic_signature_present(
-        cal, CandidateFit(ToothWear(wear_depth_m=2e-5), on_orders, None, 1, {}), before
-    )
-    # other candidates are not judged by this rule
-    assert periodic_signature_present(cal, CandidateFit(object(), envelope_only, None, 1, {}), before)
+def _score(chi2: dict[str, float], n: dict[str, int]) -> Score:
+    return Score(dict(chi2), dict(n), np.ones(6), {}, {})
+
+
+def _random_case(rng: np.random.Generator) -> tuple[dict[str, int], dict[str, float], dict[str, float]]:
+    """Feature counts, chi^2 before a candidate and per-family chi^2 gains, all drawn at random: the
+    properties below follow from the definitions and must hold for any record."""
+    n = {"order": int(rng.integers(50, 5000)), "envelope": int(rng.integers(50, 5000))}
+    n["static"] = int(rng.integers(1, 10))
+    before = {f: float(rng.uniform(2.0, 50.0)) * n[f] for f in FAMILIES}
+    gain = {f: float(rng.uniform(0.05, 0.9)) * before[f] for f in FAMILIES}
+    return n, before, gain
+
+
+def _after(n: dict[str, int], before: dict[str, float], gain: dict[str, float], *fams: str) -> Score:
+    """The score after a candidate that gains ``gain[f]`` on the families ``fams`` only."""
+    return _score({f: before[f] - (gain[f] if f in fams else 0.0) for f in FAMILIES}, n)
+
+
+def test_synchronous_gain_follows_the_balanced_weights() -> None:
+    """From the definition of ``Score.balanced_chi2`` (spectral families weighted to equal total
+    counts, the channel means with weight 1 each), on random records: an envelope-only gain has no
+    synchronous part and an order- or mean-only gain is all synchronous; the gains add over the
+    families; two spectral families with the same gain per feature carry the same weighted gain,
+    whatever their counts; a mean's gain counts once."""
+    rng = np.random.default_rng(20261126)
+    for _ in range(25):
+        n, before, gain = _random_case(rng)
+        ref = _score(before, n)
+
+        def close(a: float, b: float, ref: Score = ref) -> bool:
+            # the gains are differences of balanced chi^2 values: round-off relative to those
+            return abs(a - b) <= 1e-12 * ref.balanced_chi2
+
+        parts = {f: synchronous_gain(ref, _after(n, before, gain, f)) for f in FAMILIES}
+        assert close(parts["envelope"][0], 0.0) and parts["envelope"][1] > 0.0
+        for f in ("order", "static"):
+            assert close(parts[f][0], parts[f][1])
+        assert close(parts["static"][1], gain["static"])
+        sync, whole = synchronous_gain(ref, _after(n, before, gain, *FAMILIES))
+        assert close(whole, sum(p[1] for p in parts.values()))
+        assert close(sync, parts["order"][0] + parts["static"][0])
+        # the same gain per feature on both spectral families: equal weighted gains
+        per_feature = {**gain, "envelope": gain["order"] / n["order"] * n["envelope"]}
+        eq = {f: synchronous_gain(ref, _after(n, before, per_feature, f))[1] for f in ("order", "envelope")}
+        assert close(eq["order"], eq["envelope"])
+
+
+@pytest.mark.parametrize("effect", [ToothWear(wear_depth_m=2.2e-6), GearMisalignment(member="gear")])
+def test_periodic_candidates_need_synchronous_evidence(effect: object) -> None:
+    """A mesh-periodic effect acts alike on every mesh cycle, so its response is synchronous with the
+    shafts: a candidate whose gain sits on the envelope while its orders get worse is refused however
+    large that gain (the healthy 225 C record's wear claim was of this kind); a gain on the orders and
+    the channel means beyond the BIC penalty (``bic_threshold + k ln n``) is claimed; a synchronous
+    gain within the penalty is refused even with nothing elsewhere. Random records, no fitted numbers."""
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        n, before, gain = _random_case(rng)
+        ref = _score(before, n)
+        cal = SimpleNamespace(fit=FitSettings(), notes=[])
+        penalty = cal.fit.bic_threshold + math.log(ref.n_total)
+        # envelope-only gain of many penalties, orders slightly worse
+        envelope_only = _score(
+            {**before, "envelope": 0.05 * before["envelope"], "order": 1.01 * before["order"]}, n
+        )
+        assert synchronous_gain(ref, envelope_only)[1] > 10.0 * penalty
+        assert not periodic_signature_present(cal, CandidateFit(effect, envelope_only, None, 1, {}), ref)
+        assert "synchronous features" in cal.notes[-1]
+        # the gain on the orders and the means, many penalties
+        periodic = _after(n, before, gain, "order", "static")
+        assert synchronous_gain(ref, periodic)[0] > 10.0 * penalty
+        assert periodic_signature_present(cal, CandidateFit(effect, periodic, None, 1, {}), ref)
+        # a synchronous gain of half the penalty, nothing elsewhere
+        small = _score({**before, "static": before["static"] - 0.5 * penalty}, n)
+        assert not periodic_signature_present(cal, CandidateFit(effect, small, None, 1, {}), ref)
+        # other candidates are not judged by this rule
+        assert periodic_signature_present(cal, CandidateFit(object(), envelope_only, None, 1, {}), ref)
 
 
 def test_wear_needs_a_static_offset_and_must_reduce_it() -> None:

@@ -48,7 +48,7 @@ def test_downward_sweep_continues_from_the_top_speed() -> None:
 
 
 def test_report_names_the_readings_inside_the_band() -> None:
-    from gear_rotor_sim.analysis.reproduction_report import _write_readings
+    from gear_rotor_sim.analysis.report_published import write_readings
 
     rows = []
     for key, e25 in (("a", [-725.0, 100.0]), ("b", [625.0, 75.0])):
@@ -64,7 +64,7 @@ def test_report_names_the_readings_inside_the_band() -> None:
             }
         )
     lines: list[str] = []
-    _write_readings(
+    write_readings(
         lines.append,
         {
             "readings": rows,
@@ -109,13 +109,13 @@ def test_lower_edge_detail_reports_the_jump_into_chaos() -> None:
 
 
 def test_edge_verdict_tells_a_jump_from_weak_chaos() -> None:
-    from gear_rotor_sim.analysis.reproduction_report import _edge_verdict
+    from gear_rotor_sim.analysis.report_published import edge_verdict
 
     jump = [{"speed_rpm": 100.0, "label": "period-2", "k": float("nan"), "section_spread": 0.4},
             {"speed_rpm": 200.0, "label": "chaotic", "k": 0.99, "section_spread": 0.7}]  # fmt: skip
     weak = [{**jump[0]}, {**jump[1], "k": 0.6}]
-    assert "fully developed chaos (K 0.99 at 200 rpm)" in _edge_verdict(jump)
-    assert "weak chaos (K 0.60 at 200 rpm)" in _edge_verdict(weak)
+    assert "fully developed chaos (K 0.99 at 200 rpm)" in edge_verdict(jump)
+    assert "weak chaos (K 0.60 at 200 rpm)" in edge_verdict(weak)
 
 
 def test_new_readings_change_only_what_they_name() -> None:
@@ -152,7 +152,7 @@ def test_edge_sensitivity_reports_divergence_and_renders(monkeypatch) -> None:
     """A variation whose run leaves the physical range is a row with the speed where it did (not
     dropped, not an exception); the report lists the bands and says which variations moved the edge."""
     from gear_rotor_sim.analysis import readings
-    from gear_rotor_sim.analysis.reproduction_report import _write_edge_sensitivity
+    from gear_rotor_sim.analysis.report_published import write_edge_sensitivity
     from gear_rotor_sim.solver.newmark import SimulationDiverged
 
     bands = {"reference": (12775.0, 14700.0), "a": (13125.0, 14775.0), "b": None, "c": (12775.0, 14675.0)}
@@ -177,7 +177,7 @@ def test_edge_sensitivity_reports_divergence_and_renders(monkeypatch) -> None:
     assert rows["b"]["diverged_rpm"] == 15500.0 and rows["a"]["diverged_rpm"] is None
     assert rows["a"]["edge_errors_rpm"] == [13125.0 - 13500.0, 14775.0 - 14700.0]
     lines: list[str] = []
-    _write_edge_sensitivity(lines.append, es)
+    write_edge_sensitivity(lines.append, es)
     text = "\n".join(lines)
     assert "| zeta 0.03 | run diverged at 15500 rpm | - | - |" in text
     assert "| zeta 0.05 | 13125-14775 | -375 / +75 | yes |" in text
@@ -189,7 +189,7 @@ def test_readings_study_keeps_a_diverged_panel(monkeypatch) -> None:
     """A panel whose sweep leaves the physical range is reported with the speed, the other panels
     and the report carry on."""
     from gear_rotor_sim.analysis import readings
-    from gear_rotor_sim.analysis.reproduction_report import _write_readings
+    from gear_rotor_sim.analysis.report_published import write_readings
     from gear_rotor_sim.solver.newmark import SimulationDiverged
 
     real = readings.sweep
@@ -207,12 +207,12 @@ def test_readings_study_keeps_a_diverged_panel(monkeypatch) -> None:
     assert row["diverged_rpm"] == {"225C": 13275.0}
     assert np.isnan(row["bands_rpm"]["225C"][0]) and row["sequence_25c"]
     lines: list[str] = []
-    _write_readings(lines.append, st)
+    write_readings(lines.append, st)
     assert "run diverged at 13275 rpm" in "\n".join(lines)
 
 
 def test_summary_states_the_band_and_the_readings_range() -> None:
-    from gear_rotor_sim.analysis.reproduction_report import _readings_summary
+    from gear_rotor_sim.analysis.report_published import readings_summary
 
     def row(title: str, a: list[float], b: list[float]) -> dict:
         return {
@@ -228,11 +228,11 @@ def test_summary_states_the_band_and_the_readings_range() -> None:
             row("total backlash", [14125.0, 14875.0], [15500.0, 15550.0]),
         ],
     }
-    text = _readings_summary(rd, [12792.0, 14642.0])
+    text = readings_summary(rd, [12792.0, 14642.0])
     assert "12792-14642 rpm, edge errors -708 / -58 rpm" in text and "(not within +-700 rpm)" in text
     assert "between 12775 and 14125 rpm" in text
     assert "within +-700 rpm: total backlash; none puts all three panels there" in text
-    assert "(within +-700 rpm)." in _readings_summary(rd, [12800.0, 14642.0])
+    assert "(within +-700 rpm)." in readings_summary(rd, [12800.0, 14642.0])
 
 
 def test_config_overrides_change_only_their_field() -> None:

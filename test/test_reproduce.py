@@ -90,7 +90,7 @@ def test_hot_node9_displacement_is_the_thermal_axial_growth(tiny: tuple[dict, Pa
 def test_benchmark_uses_the_scripts_measure_when_present(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from gear_rotor_sim.analysis import reproduce
+    from gear_rotor_sim.analysis import reproduce_bench
 
     script = tmp_path / "bench_solver.py"
     script.write_text(
@@ -99,10 +99,10 @@ def test_benchmark_uses_the_scripts_measure_when_present(
         "            'speedup_vs_full': 1.0, 'max_rms_dte_error_pct': 0.3}\n",
         encoding="utf-8",
     )
-    monkeypatch.setattr(reproduce, "BENCH_SOLVER", script)
-    got = reproduce.benchmark(0.001, quick=True)
+    monkeypatch.setattr(reproduce_bench, "BENCH_SOLVER", script)
+    got = reproduce_bench.benchmark(0.001, quick=True)
     assert got["steps_per_s"] == 1.5e6 and got["quick"] is True
     assert got["max_rms_dte_error_pct"] == 0.3  # the script's own figures are kept
     assert got["source"] == "benchmarks/bench_solver.py"
     script.write_text("def main() -> None:\n    pass\n", encoding="utf-8")
-    assert reproduce._bench_solver_measure() is None
+    assert reproduce_bench._bench_solver_measure() is None

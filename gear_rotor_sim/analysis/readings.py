@@ -5,8 +5,8 @@ below is one such choice, taken from the paper's text and applied on top of the 
 configuration (``paper_sun2021_as_published``: the gear mass in Eq 20 and Eq 32). For every reading
 the main chaotic band of the three Fig 6 panels is resolved on a fine speed grid (one continuation
 segment, the band being the widest chaotic window after joining windows closer than ``gap_rpm``, as
-:func:`gear_rotor_sim.analysis.reproduce.refine_main_band` does), and the 25 C motion sequence over
-500-20000 rpm on a coarse grid. Nothing is fitted: each reading is a discrete alternative of the
+:func:`gear_rotor_sim.analysis.reproduce_studies.refine_main_band` does), and the 25 C motion sequence
+over 500-20000 rpm on a coarse grid. Nothing is fitted: each reading is a discrete alternative of the
 text, and the table reports what each gives, whichever way it goes.
 
 Readings (the paper's words in quotes):
@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_rotor_sim.analysis.bands import condense_windows, merge_windows
 from gear_rotor_sim.analysis.bifurcation import (
     BIFURCATION_CHANNELS,
     BifurcationResult,
@@ -151,7 +152,6 @@ def sweep(
 
 def main_band_of(res: BifurcationResult, gap_rpm: float, above_rpm: float = 11000.0) -> tuple[float, float]:
     """Widest chaotic window ending above ``above_rpm`` after joining windows closer than ``gap_rpm``."""
-    from gear_rotor_sim.analysis.reproduce import merge_windows
 
     joined = [w for w in merge_windows(res.chaotic_windows(merge_gap=1), gap_rpm) if w[1] >= above_rpm]
     if not joined:
@@ -202,7 +202,6 @@ def readings_study(
         :class:`gear_rotor_sim.solver.newmark.SimulationDiverged`; such a panel has NaN bands); plus
         ``step_rpm``, ``gap_rpm``, ``fine_windows_rpm``, ``paper_rpm`` and ``wall_time_s``.
     """
-    from gear_rotor_sim.analysis.reproduce import _condensed
     from gear_rotor_sim.solver.newmark import SimulationDiverged
 
     t0 = time.perf_counter()
@@ -230,9 +229,8 @@ def readings_study(
                 edge = lower_edge_detail(res, b[0])
         try:
             coarse = sweep(reading_case(rd, "25C"), coarse_speeds_rpm, settings, rd.downward, rd.fresh)
-            sequence = [
-                [lab, float(a), float(c)] for lab, a, c in _condensed(coarse.windows(), 3, coarse.speeds_rpm)
-            ]
+            condensed = condense_windows(coarse.windows(), 3, coarse.speeds_rpm)
+            sequence = [[lab, float(a), float(c)] for lab, a, c in condensed]
         except SimulationDiverged as exc:
             diverged["25C_coarse"] = float(exc.speed_rpm)
             sequence = []
@@ -268,52 +266,60 @@ class Variation:
     overrides: tuple[tuple[str, float], ...] = ()
     transient_factor: float = 1.0
 
+    @classmethod
+    def of(cls, key: str, title: str, parameter: str, value: float) -> Variation:
+        """One parameter override ``parameter = value`` (a :class:`Case` override name)."""
+        return cls(key, title, ((parameter, value),))
+
 
 #: The unstated parameters varied around the as-published 25 C band (:func:`edge_sensitivity`).
 VARIATIONS: tuple[Variation, ...] = (
     Variation("reference", "as published (zeta 0.07, mu 0.05, phi 0, k x 1)"),
-    Variation("zeta_0.05", "mesh damping ratio 0.05", (("damping_ratio", 0.05),)),
-    Variation("zeta_0.06", "mesh damping ratio 0.06", (("damping_ratio", 0.06),)),
-    Variation("zeta_0.08", "mesh damping ratio 0.08", (("damping_ratio", 0.08),)),
+    Variation.of("zeta_0.05", "mesh damping ratio 0.05", "damping_ratio", 0.05),
+    Variation.of("zeta_0.06", "mesh damping ratio 0.06", "damping_ratio", 0.06),
+    Variation.of("zeta_0.08", "mesh damping ratio 0.08", "damping_ratio", 0.08),
     # c_m = 2 zeta sqrt(k m_e) with m_e from the assembled (doubled) gear inertias: 0.07 sqrt(2)
-    Variation(
+    Variation.of(
         "zeta_assembled",
         "mesh damping ratio 0.07 of the assembled inertias (0.099)",
-        (("damping_ratio", 0.07 * float(np.sqrt(2.0))),),
+        "damping_ratio",
+        0.07 * float(np.sqrt(2.0)),
     ),
-    Variation("mu_0", "friction coefficient 0", (("friction_coefficient", 0.0),)),
-    Variation("mu_0.1", "friction coefficient 0.1", (("friction_coefficient", 0.1),)),
-    Variation(
-        "phi_pi_2", "transmission-error phase pi/2", (("transmission_error_phase_rad", float(np.pi / 2)),)
+    Variation.of("mu_0", "friction coefficient 0", "friction_coefficient", 0.0),
+    Variation.of("mu_0.1", "friction coefficient 0.1", "friction_coefficient", 0.1),
+    Variation.of(
+        "phi_pi_2", "transmission-error phase pi/2", "transmission_error_phase_rad", float(np.pi / 2)
     ),
-    Variation("k_0.98", "mesh stiffness x 0.98", (("mesh_stiffness_scale", 0.98),)),
-    Variation("k_1.02", "mesh stiffness x 1.02", (("mesh_stiffness_scale", 1.02),)),
+    Variation.of("k_0.98", "mesh stiffness x 0.98", "mesh_stiffness_scale", 0.98),
+    Variation.of("k_1.02", "mesh stiffness x 1.02", "mesh_stiffness_scale", 1.02),
     Variation("transient_x2", "transient discarded x 2", transient_factor=2.0),
     # modelling details the paper leaves open or states in a form that can be read two ways
-    Variation(
+    Variation.of(
         "load_at_gear",
         "output torque on the gear's node 14 (Eq 32's theta_zg) instead of the shaft end, node 18",
-        (("load_node", 14.0),),
+        "load_node",
+        14.0,
     ),
-    Variation(
-        "shear_1",
-        "Timoshenko shear coefficient 1 (Eq 12's mu; Cowper's 0.89 used)",
-        (("shear_coefficient", 1.0),),
+    Variation.of(
+        "shear_1", "Timoshenko shear coefficient 1 (Eq 12's mu; Cowper's 0.89 used)", "shear_coefficient", 1.0
     ),
-    Variation(
+    Variation.of(
         "tilt_per_degree",
         "bearing tilt stiffness read per degree (Table 5 gives no unit; x 57.3)",
-        (("bearing_tilt_stiffness_scale", float(180.0 / np.pi)),),
+        "bearing_tilt_stiffness_scale",
+        float(180.0 / np.pi),
     ),
-    Variation(
+    Variation.of(
         "no_tilt_damping",
         "no bearing tilt damping (Table 5 gives c_theta in N s/m, a translational unit)",
-        (("bearing_tilt_damping", 0.0),),
+        "bearing_tilt_damping",
+        0.0,
     ),
-    Variation(
+    Variation.of(
         "reference_20c",
         "stress-free temperature 20 C (the paper: 25 C, Sec 2.1 and Table 1)",
-        (("reference_temperature_c", 20.0),),
+        "reference_temperature_c",
+        20.0,
     ),
 )
 

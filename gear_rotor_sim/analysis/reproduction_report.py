@@ -1,52 +1,26 @@
-"""docs/REPRODUCTION.md: the report of ``gear-rotor-sim reproduce`` from its saved numbers."""
+"""docs/REPRODUCTION.md: the report of ``gear-rotor-sim reproduce`` from its saved numbers.
+
+The summary, Figs 6-10 and the solver speed are written here; the mesh-stiffness section by
+:mod:`~gear_rotor_sim.analysis.report_stiffness`, the as-published section (with the readings of the
+paper) by :mod:`~gear_rotor_sim.analysis.report_published`, table rows by
+:mod:`~gear_rotor_sim.analysis.report_markdown`.
+"""
 
 from __future__ import annotations
 
-import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from gear_rotor_sim.analysis.paper_data import (
-    INV_ISO_SCALE,
-    ISO_SCALE,
-    PANEL_TITLES,
-    PANELS,
-    PAPER_FIG7,
-    PAPER_FIG8,
-    PAPER_SEQUENCE,
-)
+from gear_rotor_sim.analysis.bands import main_band
+from gear_rotor_sim.analysis.paper_data import PANEL_TITLES, PANELS, PAPER_SEQUENCE
+from gear_rotor_sim.analysis.report_markdown import figure_and_notes, fmt_windows, md_row
+from gear_rotor_sim.analysis.report_published import PUBLISHED_CONFIG, write_published_section
+from gear_rotor_sim.analysis.report_stiffness import intro_vars, write_stiffness_section
 
-
-def main_band(windows: list[tuple[float, float]], above_rpm: float = 11000.0) -> tuple[float, float]:
-    """The widest chaotic window ending above ``above_rpm`` (the primary-resonance band)."""
-    cand = [(a, b) for a, b in windows if b >= above_rpm]
-    if not cand:
-        return float("nan"), float("nan")
-    return max(cand, key=lambda w: w[1] - w[0])
-
-
-def _row(*cells: Any) -> str:
-    """One markdown table row; floats with ``:g``."""
-    return "| " + " | ".join(f"{c:g}" if isinstance(c, float) else str(c) for c in cells) + " |"
-
-
-def _fmt_windows(ws: list[tuple[float, float]]) -> str:
-    return ", ".join(f"{a:.0f}-{b:.0f}" for a, b in ws) if ws else "none"
-
-
-def _figure_and_notes(
-    add: Callable[[str], None], alt: str, png: str, notes: list[str], values: dict[str, Any] | None
-) -> None:
-    """A figure of docs/figures and the explanation under it (``values`` fills its placeholders)."""
-    add("")
-    add(f"![{alt}](figures/{png})")
-    add("")
-    for extra in notes:
-        add(extra.format(**values) if values is not None else extra)
-    add("")
+#: Re-exported for ``reproduce`` and older imports.
+__all__ = ["PUBLISHED_CONFIG", "main_band", "write_report"]
 
 
 def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
@@ -71,7 +45,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         "within 0.5 % of the converged value at every tested periodic point."
     )
     add("")
-    iv = _intro_vars(r)
+    iv = intro_vars(r)
     for extra in REPORT_INTRO:
         add(extra.format(**iv) if iv else extra)
     add("")
@@ -83,7 +57,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
     for row in r["fig7"]:
         xyz = " / ".join(f"{v:.0f}" for v in row["model_rms_xyz_n"])
         add(
-            _row(
+            md_row(
                 row["temperature_c"],
                 row["speed_rpm"],
                 row["paper_n"],
@@ -92,7 +66,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
                 xyz,
             )
         )
-    _figure_and_notes(add, "Fig 7", "fig7_bearing_force.png", REPORT_FIG7, _fig7_vars(r))
+    figure_and_notes(add, "Fig 7", "fig7_bearing_force.png", REPORT_FIG7, _fig7_vars(r))
     if "sensitivity" in r:
         add("### Sensitivity to the parameters the paper does not give (bearing 2, A#)")
         add("")
@@ -100,7 +74,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         add("|---|---|---|---|---|")
         for row in r["sensitivity"]:
             add(
-                _row(
+                md_row(
                     row["parameter"],
                     row["value"],
                     row["temperature_c"],
@@ -140,7 +114,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
             f"{row['model_um']:.1f} | "
             f"{row['rel_error']:+.1%} | {row['model_rms_um']:.1f} | {st} |"
         )
-    _figure_and_notes(add, "Fig 8", "fig8_displacement.png", REPORT_FIG8, _fig8_vars(r))
+    figure_and_notes(add, "Fig 8", "fig8_displacement.png", REPORT_FIG8, _fig8_vars(r))
     # Fig 9
     add("## Fig 9: share of the bearing-2 force per direction")
     add("")
@@ -157,7 +131,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         label = name if "rpm" in name else f"{name} C (19000 rpm)"
         cells = " | ".join(f"{a:.1%} ({b:.1%})" for a, b in zip(d["rms"], d["power"], strict=True))
         add(f"| {label} | {cells} |")
-    _figure_and_notes(add, "Fig 9", "fig9_force_share.png", REPORT_FIG9, None)
+    figure_and_notes(add, "Fig 9", "fig9_force_share.png", REPORT_FIG9, None)
     # Fig 10
     add("## Fig 10: axis orbit of bearing 2 (node 9) at 19000 rpm")
     add("")
@@ -165,7 +139,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
     add("|---|---|")
     for name, c in r["fig10_orbit_center_um"].items():
         add(f"| {name} C | {c[0]:.2f}, {c[1]:.2f} |")
-    _figure_and_notes(add, "Fig 10", "fig10_orbit.png", REPORT_FIG10, None)
+    figure_and_notes(add, "Fig 10", "fig10_orbit.png", REPORT_FIG10, None)
     # Fig 6
     f6 = r["fig6"]
     add("## Fig 6: bifurcation of the DTE")
@@ -187,7 +161,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         add(
             f"| {PANEL_TITLES[key]} | {d['wall_time_s']:.1f} | {d.get('workers', '-')} | "
             f"{la[0]:.2f} / {la[1]:.2f} | {d['period1_fraction_500_7300']:.0%} | "
-            f"{_fmt_windows(d['chaotic_windows'])} | {_fmt_windows(d['paper_chaotic_windows'])} |"
+            f"{fmt_windows(d['chaotic_windows'])} | {fmt_windows(d['paper_chaotic_windows'])} |"
         )
     add("")
     add(
@@ -207,7 +181,7 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         ):
             if np.isfinite(lo):
                 add(
-                    _row(
+                    md_row(
                         PANEL_TITLES[key],
                         f"{plo:.0f}-{phi:.0f}",
                         f"{lo:.0f}-{hi:.0f}",
@@ -249,8 +223,8 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
         add(extra.format(**f6v))
     add("")
     if "stiffness" in r:
-        _write_stiffness_section(add, r)
-    _write_published_section(add, r, out)
+        write_stiffness_section(add, r)
+    write_published_section(add, r, out)
     b = r["benchmark"]
     add("## Solver speed")
     add("")
@@ -263,549 +237,6 @@ def write_report(r: dict[str, Any], out: Path, total_s: float) -> Path:
     path = out / "REPRODUCTION.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
-
-
-PUBLISHED_CONFIG = "paper_sun2021_as_published"
-
-
-def published_results(out: Path, level: str) -> dict[str, Any] | None:
-    """Saved results of ``reproduce --config paper_sun2021_as_published`` (``level`` first)."""
-    for lv in (level, "quick" if level == "full" else "full"):
-        p = out / "figures" / "data" / f"reproduce_{lv}_{PUBLISHED_CONFIG}.json"
-        if p.is_file():
-            return json.loads(p.read_text(encoding="utf-8"))
-    return None
-
-
-def _mean_abs_error(rows: list[dict[str, Any]]) -> float:
-    return float(np.mean([abs(x["rel_error"]) for x in rows])) if rows else float("nan")
-
-
-#: What the paper's text says about the lower edge of the 25 C main chaotic band (Sec 4.2, 4.3).
-PAPER_25C_LOWER_EDGE_TEXT = (
-    "The paper's text is not consistent about this edge: Sec 4.2 lists the 25 C chaos at "
-    '"13500-14700 rpm" and says that "at 13500rpm, the system motion changes from multi-period to '
-    'chaos as the temperature increases" (25 C multi-period there), but also that "with the increase '
-    'of temperature, the system changes from chaotic to periodic-2 motion at 12850rpm" (25 C chaotic '
-    'at 12850 rpm); Sec 4.3 gives "13100-14600rpm" for Fig 6a.'
-)
-
-
-def _within(errors: list[float], tol: float = 700.0) -> bool:
-    return all(np.isfinite(e) and abs(e) <= tol for e in errors)
-
-
-def _edge_verdict(edge: list[dict[str, Any]]) -> str:
-    """Whether a detection threshold (on K, or on the spread of the section as a bifurcation diagram is
-    read by eye) could move the band's lower edge: only if its first chaotic speed is weak chaos."""
-    first = next((e for e in edge if e["label"] == "chaotic"), None)
-    if first is None:
-        return ""
-    if first["k"] >= 0.9:
-        return (
-            f"The band starts with a jump into fully developed chaos (K {first['k']:.2f} at "
-            f"{first['speed_rpm']:.0f} rpm): no detection threshold between K 0.5 and 0.9 moves this edge."
-        )
-    return (
-        f"The first chaotic speed is weak chaos (K {first['k']:.2f} at {first['speed_rpm']:.0f} rpm): a "
-        "stricter detection threshold would move this edge up."
-    )
-
-
-def _write_readings(add: Callable[[str], None], rd: dict[str, Any]) -> None:
-    """Table of the readings of the paper (gear_rotor_sim/analysis/readings.py) against Fig 6."""
-    panels = list(rd["paper_rpm"])
-    add("### Readings of the paper against the Fig 6 bands")
-    add("")
-    add(
-        "Each row is one reading of the paper's text applied on top of this configuration "
-        "(`gear_rotor_sim/analysis/readings.py`; nothing fitted, each a discrete alternative of the "
-        f"text). Main band of each panel re-swept on a {rd['step_rpm']:g} rpm grid in one continuation "
-        f"segment ({', '.join(f'{k}: {a:.0f}-{b:.0f}' for k, (a, b) in rd['fine_windows_rpm'].items())} "
-        f"rpm), chaotic windows closer than {rd['gap_rpm']:g} rpm joined, the widest kept; edge errors "
-        f"against the paper in brackets; {rd['wall_time_s']:.0f} s for the table."
-    )
-    add("")
-    head = " | ".join(
-        f"{PANEL_TITLES.get(k, k)} (paper {a:.0f}-{b:.0f})" for k, (a, b) in rd["paper_rpm"].items()
-    )
-    add(f"| reading | from the paper's text | {head} |")
-    add("|---|---|" + "---|" * len(panels))
-    for x in rd["readings"]:
-        cells = []
-        for k in panels:
-            lo, hi = x["bands_rpm"][k]
-            el, eh = x["edge_errors_rpm"][k]
-            div = x.get("diverged_rpm", {}).get(k)
-            if div is not None:
-                cells.append(f"run diverged at {div:.0f} rpm")
-                continue
-            cells.append("none" if not np.isfinite(lo) else f"{lo:.0f}-{hi:.0f} ({el:+.0f} / {eh:+.0f})")
-        add(_row(x["title"], x["text"], *cells))
-    add("")
-    inside = [x["title"] for x in rd["readings"] if _within(x["edge_errors_rpm"].get("25C", [np.nan]))]
-    all_in = [x["title"] for x in rd["readings"] if all(_within(x["edge_errors_rpm"][k]) for k in panels)]
-    add(
-        "Fig 6a main band within +-700 rpm of the paper's at both edges: "
-        + (", ".join(inside) if inside else "no reading")
-        + ". All three panels within +-700 rpm: "
-        + (", ".join(all_in) if all_in else "no reading")
-        + "."
-    )
-    add("")
-    for x in rd["readings"]:
-        ok = [PANEL_TITLES.get(k, k)[:3] for k in panels if _within(x["edge_errors_rpm"][k])]
-        late = [f"{lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"] if lab == "chaotic" and hi >= 11000]
-        add(
-            f"- {x['title']}: panels within +-700 rpm: {', '.join(ok) if ok else 'none'}; 25 C chaos "
-            f"above 11000 rpm on the coarse grid: {', '.join(late) if late else 'none'}."
-        )
-    add("")
-    add(
-        "A reading is adopted into `paper_sun2021_as_published` only if it brings all three panels "
-        "within +-700 rpm (it is meant to reproduce Fig 6, not one edge of one panel); "
-        + (
-            "none does, so the configuration keeps the Eq 32 reading alone: its Fig 6a band stays the "
-            "one above and its Figs 7 and 8 are those below (the readings' own Figs 7 and 8 were not "
-            "computed)."
-            if not all_in
-            else f"{all_in[0]} does."
-        )
-    )
-    add("")
-    add("25 C motion sequence per reading (coarse grid, runs shorter than 3 grid points absorbed):")
-    add("")
-    for x in rd["readings"]:
-        seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in x["sequence_25c"])
-        div = x.get("diverged_rpm", {}).get("25C_coarse")
-        add(f"- {x['title']}: {seq}." if div is None else f"- {x['title']}: run diverged at {div:.0f} rpm.")
-    add("")
-    edge = rd.get("lower_edge_25c") or []
-    if edge:
-        add(
-            "Lower edge of the as-published 25 C band on the fine grid (0-1 test statistic K, chaos at "
-            "K >= 0.5; spread = peak-to-peak of the Poincare section over the DTE range): "
-            + "; ".join(
-                f"{e['speed_rpm']:.0f} rpm {e['label']}"
-                + (f" K {e['k']:.2f}" if np.isfinite(e["k"]) else "")
-                + f" spread {e['section_spread']:.2f}"
-                for e in edge
-            )
-            + ". "
-            + _edge_verdict(edge)
-        )
-        add("")
-    add(PAPER_25C_LOWER_EDGE_TEXT)
-    add("")
-
-
-def _write_edge_sensitivity(add: Callable[[str], None], es: dict[str, Any]) -> None:
-    """Table of the as-published 25 C band with one unstated parameter changed at a time."""
-    rows = es["rows"]
-    add("### The 25 C band against the parameters the paper does not give")
-    add("")
-    add(
-        "Each row changes, on its own, one parameter the paper does not give or one modelling detail it "
-        'leaves open (a row that names "the paper: ..." departs from the text and is shown for the size '
-        "of the effect; a row marked proxy is a reading of the text run through the mesh-stiffness "
-        "scale) in the as-published configuration "
-        "(`gear_rotor_sim/analysis/readings.py`, "
-        f"`edge_sensitivity`), 25 C swept upwards over {es['window_rpm'][0]:.0f}-{es['window_rpm'][1]:.0f} "
-        f"rpm on a {es['step_rpm']:g} rpm grid in one continuation, windows closer than {es['gap_rpm']:g} "
-        f"rpm joined; {es['wall_time_s']:.0f} s for the table. None of these is adopted."
-    )
-    add("")
-    add("| variation | 25 C main band (rpm) | edge errors against 13500-14700 (rpm) | within +-700 |")
-    add("|---|---|---|---|")
-    for x in rows:
-        lo, hi = x["band_rpm"]
-        if x.get("diverged_rpm") is not None:
-            band, err, ok = f"run diverged at {x['diverged_rpm']:.0f} rpm", "-", "-"
-        elif not np.isfinite(lo):
-            band, err, ok = "no chaotic band", "-", "no"
-        else:
-            el, eh = x["edge_errors_rpm"]
-            band, err = f"{lo:.0f}-{hi:.0f}", f"{el:+.0f} / {eh:+.0f}"
-            ok = "yes" if _within(x["edge_errors_rpm"]) else "no"
-        add(_row(x["title"], band, err, ok))
-    add("")
-    ref = rows[0]["band_rpm"][0]
-    moved = [
-        f"{x['title']} ({x['band_rpm'][0] - ref:+.0f} rpm)"
-        for x in rows[1:]
-        if x.get("diverged_rpm") is None and np.isfinite(x["band_rpm"][0]) and x["band_rpm"][0] != ref
-    ]
-    same = [
-        x["title"]
-        for x in rows[1:]
-        if x.get("diverged_rpm") is None and np.isfinite(x["band_rpm"][0]) and x["band_rpm"][0] == ref
-    ]
-    add(
-        "Lower edge moved against the as-published row by: "
-        + ("; ".join(moved) if moved else "no variation")
-        + ". Lower edge unchanged (same grid speed) with: "
-        + (", ".join(same) if same else "no variation")
-        + "."
-    )
-    add("")
-
-
-def _readings_summary(rd: dict[str, Any], band: list[float]) -> str:
-    """What the readings study concludes for Fig 6a (issue 13's +-700 rpm goal), from its numbers."""
-    plo, phi = rd["paper_rpm"]["25C"]
-    panels = list(rd["paper_rpm"])
-    rows = rd["readings"]
-    lows = [(x["bands_rpm"]["25C"][0], x["title"]) for x in rows if np.isfinite(x["bands_rpm"]["25C"][0])]
-    all_in = [x["title"] for x in rows if all(_within(x["edge_errors_rpm"][k]) for k in panels)]
-    lo_min, lo_max = min(lows)[0], max(lows)[0]
-    inside_a = [x["title"] for x in rows if _within(x["edge_errors_rpm"]["25C"])]
-    text = (
-        f"Summary for Fig 6a. The as-published band resolved to 25 rpm is {band[0]:.0f}-{band[1]:.0f} "
-        f"rpm, edge errors {band[0] - plo:+.0f} / {band[1] - phi:+.0f} rpm against the paper's "
-        f"{plo:.0f}-{phi:.0f} rpm"
-        + (" (within +-700 rpm)." if _within([band[0] - plo, band[1] - phi]) else " (not within +-700 rpm).")
-        + f" Under the readings of the text the 25 C lower edge lies between {lo_min:.0f} and "
-        f"{lo_max:.0f} rpm; "
-        + (
-            f"readings that put Fig 6a within +-700 rpm: {', '.join(inside_a)}; "
-            if inside_a
-            else "no reading puts Fig 6a within +-700 rpm; "
-        )
-        + (
-            f"all three panels: {', '.join(all_in)}."
-            if all_in
-            else "none puts all three panels there, so none is adopted."
-        )
-        + " How the parameters the paper does not give move the lower edge is in the table above; "
-        "choosing one of them to place the edge would be a fit to the figure, not a reading of the paper."
-    )
-    return text
-
-
-def _write_published_section(add: Callable[[str], None], r: dict[str, Any], out: Path) -> None:
-    """The as-published configuration against the default model and the paper (when its results exist)."""
-    p = published_results(out, r["level"])
-    if p is None:
-        return
-    add("## As-published configuration (`paper_sun2021_as_published`)")
-    add("")
-    add(
-        "Sec 3.5 assembles the system by adding the mass, stiffness, gyroscopic and damping matrices of "
-        "each part at its nodes. The gears are parts twice: as rigid discs (Eq 20, M^d = diag(m, m, m, "
-        "J_d, J_d, J_p)) and in the gear pair (Eqs 31-32, M^g holds the same m, J_d, J_p of both gears). "
-        "Read literally, each gear's mass and inertia are added twice. The default model counts them "
-        "once (physically consistent); `config/paper_sun2021_as_published.yaml` "
-        "(`meshes[].gear_mass_in_mesh_matrix: true`, `paper_gearbox(config=...)`, "
-        "`load_config('paper_sun2021_as_published')`) adds M^g too. Nothing else changes: the mesh "
-        "(Eqs 21-33, c_m from the gears' own inertias) and K, C, G are bitwise the default ones "
-        "(test/test_published_config.py)."
-    )
-    modes = p.get("mesh_mode", {})
-    if modes:
-        add(
-            f"The torsional mesh mode (largest share of strain energy in the mesh, linearised with the "
-            f"mean mesh stiffness, 25 C) moves from {modes['default_hz']:.0f} Hz to "
-            f"{modes['config_hz']:.0f} Hz (mesh frequency = mode at {modes['default_rpm']:.0f} and "
-            f"{modes['config_rpm']:.0f} rpm)."
-        )
-    add("")
-    cmd = (
-        "gear-rotor-sim reproduce"
-        + (" --quick" if p["level"] == "quick" else "")
-        + f" --config {PUBLISHED_CONFIG}"
-    )
-    add(
-        f"Generated by `{cmd}` (level `{p['level']}`, {p['total_wall_s']:.0f} s); it rewrites this file "
-        "from the saved default results with this section added. Figures: "
-        f"`docs/figures/{PUBLISHED_CONFIG}/`."
-    )
-    add("")
-    fine = p.get("fig6_25c_main_band_fine")
-    add("### Fig 6: chaotic windows")
-    add("")
-    add(
-        "| panel | paper (rpm) | default: main band (rpm) | as published: main band (rpm) "
-        "| as published: edge errors (rpm) | as published: all windows |"
-    )
-    add("|---|---|---|---|---|---|")
-    for key in p["fig6"]:
-        if key == "points":
-            continue
-        pw = p["fig6"][key]
-        dw = r["fig6"][key]
-        paper = [tuple(w) for w in pw["paper_chaotic_windows"]]
-        lo, hi = main_band(pw["chaotic_windows"])
-        add(
-            _row(
-                PANEL_TITLES.get(key, pw["case"]),
-                _fmt_windows(paper),
-                _fmt_windows([main_band(dw["chaotic_windows"])]),
-                _fmt_windows([(lo, hi)]),
-                f"{lo - paper[0][0]:+.0f} / {hi - paper[0][1]:+.0f}",
-                _fmt_windows(pw["chaotic_windows"]),
-            )
-        )
-    add("")
-    add(
-        f"Coarse grid of the `{p['level']}` level ({p['fig6']['25C']['n_speeds']} speeds from 500 to "
-        "20000 rpm, split into one continuation segment per worker); main band = widest chaotic window "
-        "above 11000 rpm."
-    )
-    add("")
-    if fine is not None and "windows_rpm" in fine:
-        lo, hi = fine["band_rpm"]
-        plo, phi = (float(v) for v in p["fig6"]["25C"]["paper_chaotic_windows"][0])
-        add(
-            f"Fig 6a main band resolved to {fine['step_rpm']:g} rpm ({fine['grid_rpm'][0]:.0f}-"
-            f"{fine['grid_rpm'][1]:.0f} rpm swept upwards in one continuation, chaotic windows closer "
-            f"than {fine['gap_rpm']:g} rpm joined): **{lo:.0f}-{hi:.0f} rpm** against the paper's "
-            f"{plo:.0f}-{phi:.0f} rpm, edge errors {lo - plo:+.0f} / {hi - phi:+.0f} rpm (the paper's "
-            "Sec 4.3 text gives 13100-14600 rpm for the same figure). Fine windows: "
-            f"{_fmt_windows([tuple(w) for w in fine['windows_rpm']])}."
-        )
-        others = fine.get("other_grids", [])
-        if others:
-            add("")
-            add(
-                "The same re-sweep on other grids (other speeds, other continuation paths): "
-                + "; ".join(
-                    f"{o['step_rpm']:g} rpm: {o['band_rpm'][0]:.0f}-{o['band_rpm'][1]:.0f} "
-                    f"({o['band_rpm'][0] - plo:+.0f} / {o['band_rpm'][1] - phi:+.0f})"
-                    for o in others
-                )
-                + "."
-            )
-        add("")
-    if p.get("readings"):
-        _write_readings(add, p["readings"])
-    if p.get("edge_sensitivity"):
-        _write_edge_sensitivity(add, p["edge_sensitivity"])
-    if p.get("readings") and fine is not None and "band_rpm" in fine:
-        add(_readings_summary(p["readings"], fine["band_rpm"]))
-        add("")
-    add("Motion sequence with increasing speed (as published; runs shorter than 3 grid points absorbed):")
-    add("")
-    for key in p["fig6"]:
-        if key == "points":
-            continue
-        seq = ", ".join(f"{lab} {lo:.0f}-{hi:.0f}" for lab, lo, hi in p["fig6"][key]["sequence"])
-        add(f"- {PANEL_TITLES.get(key, key)}: as published: {seq}.")
-        add(f"  Paper: {PAPER_SEQUENCE.get(key, '-')}.")
-    add("")
-    add(f"![as-published Fig 6](figures/{PUBLISHED_CONFIG}/fig6_bifurcation.png)")
-    add("")
-    add("### Fig 7: RMS total force of bearing 2 (A#)")
-    add("")
-    add("| T (C) | speed (rpm) | paper (N) | default (N) | as published (N) | as published: rel. error |")
-    add("|---|---|---|---|---|---|")
-    for d, q in zip(r["fig7"], p["fig7"], strict=True):
-        add(
-            _row(
-                d["temperature_c"],
-                d["speed_rpm"],
-                d["paper_n"],
-                f"{d['model_n']:.0f}",
-                f"{q['model_n']:.0f}",
-                f"{q['rel_error']:+.1%}",
-            )
-        )
-    add("")
-    add(
-        f"Mean |relative error| over the quoted points: default {_mean_abs_error(r['fig7']):.1%}, "
-        f"as published {_mean_abs_error(p['fig7']):.1%}."
-    )
-    add("")
-    add(f"![as-published Fig 7](figures/{PUBLISHED_CONFIG}/fig7_bearing_force.png)")
-    add("")
-    add("### Fig 8: displacement amplitude at 19000 rpm")
-    add("")
-    add(
-        "| bearings | T (C) | node | paper (um) | default (um) | as published (um) "
-        "| as published: rel. error |"
-    )
-    add("|---|---|---|---|---|---|---|")
-    by_key = {(x["bearing_type"], x["temperature_c"], x["node"]): x for x in r["fig8"]}
-    for q in p["fig8"]:
-        d = by_key.get((q["bearing_type"], q["temperature_c"], q["node"]))
-        add(
-            _row(
-                q["bearing_type"],
-                q["temperature_c"],
-                q["node"],
-                q["paper_um"],
-                f"{d['model_um']:.1f}" if d else "-",
-                f"{q['model_um']:.1f}",
-                f"{q['rel_error']:+.1%}",
-            )
-        )
-    add("")
-    shared = [x for x in p["fig8"] if (x["bearing_type"], x["temperature_c"], x["node"]) in by_key]
-    base = [by_key[(x["bearing_type"], x["temperature_c"], x["node"])] for x in shared]
-    add(
-        f"Mean |relative error| over the quoted points: default {_mean_abs_error(base):.1%}, "
-        f"as published {_mean_abs_error(shared):.1%}."
-    )
-    add("")
-
-
-def _write_stiffness_section(add: Callable[[str], None], r: dict[str, Any]) -> None:
-    """The mesh-stiffness-scale study: Fig 6 band location, Fig 7 and Fig 8 values per scale."""
-    st = r["stiffness"]
-    iso = st["iso"]
-    add("## Sensitivity to the mesh stiffness scale")
-    add("")
-    add(
-        "The paper gives the potential-energy TVMS only as equations. Ours has a mean of "
-        f"{iso['k_pe']:.3e} N/m at 25 C, {1 / iso['iso_over_pe']:.3f} of the ISO 6336-1 value "
-        f"c_gamma_alpha b = {iso['k_iso']:.3e} N/m "
-    )
-    add(
-        "(`docs/mesh_stiffness.md`). The stiffness scale multiplies k_m(t) at every mesh phase "
-        "(the shape over the mesh cycle is unchanged) and the mesh damping by sqrt(scale), "
-        "so the damping ratio stays 0.07 "
-        "(`Case(..., overrides=(('mesh_stiffness_scale', s),))`, "
-        "`gear_rotor_sim.analysis.bifurcation.scale_mesh_stiffness`). "
-        f"Scale {ISO_SCALE:g} is the ISO-equivalent stiffness; scale {INV_ISO_SCALE:g} is its inverse."
-    )
-    add("")
-    add("### Fig 6: location of the main chaotic band")
-    add("")
-    add(
-        "Main band = the widest chaotic window (neighbouring chaotic windows separated by one grid speed "
-        "merged) reaching above 11000 rpm; the prediction moves the scale-1 band by sqrt(scale) "
-        "(a resonance at fixed mass). The grid ends at 20000 rpm, so a band reaching 20000 rpm is cut there."
-    )
-    add("")
-    add(
-        "| panel | scale | mean k_m at 25 C (N/m) | model: widest chaotic window above 11000 rpm "
-        "| sqrt(scale) x scale-1 band (rpm) "
-        "| paper (rpm) | edge errors (rpm) | overlap | model at paper mid-window | wall time (s) |"
-    )
-    add("|---|---|---|---|---|---|---|---|---|---|")
-    for x in st["fig6"]:
-        lo, hi = x["main_band"]
-        plo, phi = x["paper"]
-        band = f"{lo:.0f}-{hi:.0f}" if np.isfinite(lo) else "none"
-        err = f"{lo - plo:+.0f} / {hi - phi:+.0f}" if np.isfinite(lo) else "-"
-        pred = f"{x['pred_lo']:.0f}-{x['pred_hi']:.0f}" if np.isfinite(x["pred_lo"]) else "-"
-        add(
-            f"| {PANEL_TITLES[x['panel']]} | {x['scale']:g} | {iso['k_pe'] * x['scale']:.3e} | "
-            f"{band} | {pred} | "
-            f"{plo:.0f}-{phi:.0f} | {err} | {x['jaccard']:.0%} | {x['label_at_paper_mid']} | "
-            f"{x['wall_time_s']:.1f} |"
-        )
-    add("")
-    add("All chaotic windows per run:")
-    add("")
-    for x in st["fig6"]:
-        add(f"- {PANEL_TITLES[x['panel']]}, scale {x['scale']:g}: {_fmt_windows(x['chaotic_windows'])}")
-    add("")
-    add("![band vs scale](figures/fig6_band_vs_stiffness_scale.png)")
-    add("")
-    add("![Fig 6a per scale](figures/fig6_25C_stiffness_scales.png)")
-    add("")
-    add("### Figs 7 and 8 against the stiffness scale (bearings A#)")
-    add("")
-    scales = st["scales"]
-    add("| T (C) | speed (rpm) | paper (N) | " + " | ".join(f"k x {sc:g} (N)" for sc in scales) + " |")
-    add("|---|---|---|" + "---|" * len(scales))
-    f7 = {(x["scale"], x["temperature_c"], x["speed_rpm"]): x for x in st["fig7"]}
-    for t, sp, paper_n in PAPER_FIG7:
-        cells = " | ".join(f"{f7[(sc, t, sp)]['model_n']:.0f}" for sc in scales)
-        add(f"| {t:g} | {sp:g} | {paper_n:g} | {cells} |")
-    add("")
-    add("Speed of the largest bearing-2 force on the Fig 7 grid (the resonance peak), per scale:")
-    add("")
-    add("| T (C) | " + " | ".join(f"k x {sc:g}" for sc in scales) + " |")
-    add("|---|" + "---|" * len(scales))
-    for t in (25.0, 125.0, 225.0):
-        cells = " | ".join(
-            f"{f7[(sc, t, 1000.0)]['peak_speed_rpm']:.0f} rpm, {f7[(sc, t, 1000.0)]['peak_n']:.0f} N"
-            for sc in scales
-        )
-        add(f"| {t:g} | {cells} |")
-    add("")
-    add("![Fig 7 per scale](figures/fig7_stiffness_scales.png)")
-    add("")
-    base8 = {
-        x["temperature_c"]: x["model_um"] for x in r["fig8"] if x["node"] == 9 and x["bearing_type"] == "A#"
-    }
-    f8 = {(x["scale"], x["temperature_c"]): x["model_um"] for x in st["fig8_node9"]}
-    f8.update({(1.0, t): v for t, v in base8.items()})
-    add("Fig 8, node 9 at 19000 rpm (largest distance from the theoretical position):")
-    add("")
-    add("| T (C) | paper (um) | " + " | ".join(f"k x {sc:g} (um)" for sc in scales) + " |")
-    add("|---|---|" + "---|" * len(scales))
-    for bt, t, node, paper_um in PAPER_FIG8:
-        if bt == "A#" and node == 9:
-            cells = " | ".join(f"{f8[(sc, t)]:.1f}" if (sc, t) in f8 else "-" for sc in scales)
-            add(f"| {t:g} | {paper_um:g} | {cells} |")
-    add("")
-    sv = _intro_vars(r)
-    for extra in REPORT_STIFFNESS:
-        add(extra.format(**sv))
-    add("")
-    add("| scale | " + " | ".join(["frequency (Hz), mesh energy, speed (rpm)"] * 2) + " |")
-    add("|---|---|---|")
-    for sc, modes in st.get("modes", {}).items():
-        cells = [
-            f"{m['f_hz']:.0f}, {m['mesh_energy']:.0%}, {m['speed_rpm']:.0f}"
-            for m in modes
-            if m["f_hz"] > 2000
-        ]
-        add(f"| {sc} | " + " | ".join([*cells, "-", "-"][:2]) + " |")
-    add("")
-
-
-def _band(x: dict[str, Any]) -> str:
-    lo, hi = x["main_band"]
-    return f"{lo:.0f}-{hi:.0f} rpm" if np.isfinite(lo) else "none"
-
-
-def _intro_vars(r: dict[str, Any]) -> dict[str, Any]:
-    """Numbers quoted in the summary and the stiffness conclusions (empty without the stiffness study)."""
-    st = r.get("stiffness")
-    if not st:
-        return {}
-    scales = st["scales"]
-    s_lo, s_hi = min(scales), max(scales)
-    f7 = {(x["scale"], x["temperature_c"], x["speed_rpm"]): x for x in st["fig7"]}
-    rows = {(x["panel"], x["scale"]): x for x in st["fig6"]}
-    f8 = {
-        x["temperature_c"]: x["model_um"] for x in r["fig8"] if x["node"] == 9 and x["bearing_type"] == "A#"
-    }
-    u25 = [x["model_um"] for x in st["fig8_node9"] if x["temperature_c"] == 25.0] + [f8[25.0]]
-    f1000 = [f7[(sc, t, 1000.0)]["model_n"] for sc in scales for t in (25.0,)]
-    base, soft, iso = rows[("25C", 1.0)], rows[("25C", s_lo)], rows[("25C", s_hi)]
-    iso_windows = [w for w in iso["chaotic_windows"] if w[1] >= 11000]
-    iso_b = rows.get(("225C", s_hi))
-    iso_c = rows.get(("225C_fixed", s_hi))
-    return {
-        "s_lo": s_lo,
-        "s_hi": s_hi,
-        "peak_lo": f7[(s_lo, 25.0, 1000.0)]["peak_speed_rpm"],
-        "peak_hi": f7[(s_hi, 25.0, 1000.0)]["peak_speed_rpm"],
-        "u25": f8[25.0],
-        "u25_lo": min(u25),
-        "u25_hi": max(u25),
-        "b_lo": base["main_band"][0],
-        "b_hi": base["main_band"][1],
-        "soft_lo": soft["main_band"][0],
-        "soft_hi": soft["main_band"][1],
-        "soft_err": soft["main_band"][0] - soft["paper"][0],
-        "base_err": base["main_band"][0] - base["paper"][0],
-        "iso_band": f"the range {base['main_band'][0]:.0f}-{base['main_band'][1]:.0f} rpm, "
-        "chaotic at scale 1, is no longer chaotic and the highest chaotic window is "
-        + (_fmt_windows([max(iso_windows)]) + " rpm, near the grid end" if iso_windows else "none"),
-        "iso_win": _fmt_windows([w for w in iso_windows if w[0] < 16000]) + " rpm",
-        "iso_b": f"(b) {_fmt_windows([w for w in iso_b['chaotic_windows'] if w[1] >= 11000])} rpm"
-        if iso_b
-        else "-",
-        "iso_c": f"(c) {_fmt_windows([w for w in iso_c['chaotic_windows'] if w[1] >= 11000])} rpm"
-        if iso_c
-        else "-",
-        "f7_spread": (max(f1000) - min(f1000)) / min(f1000) * 100.0,
-    }
 
 
 def _fig6_vars(r: dict[str, Any]) -> dict[str, Any]:
@@ -923,7 +354,7 @@ REPORT_FIG10 = [
     "model the axial thermal growth is along z and leaves the x-y orbit nearly unchanged, a difference",
     "we cannot resolve from the paper's text.",
 ]
-REPORT_STIFFNESS: list[str] = []
+
 REPORT_FIG6 = [
     "Why the model differs. The low-speed behaviour matches: period-1 over 500-7300 rpm at 25 C",
     "({p1:.0%} of the grid speeds) and at 7100 rpm in panels (a) and (b), followed by period-1, period-2",
@@ -943,28 +374,4 @@ REPORT_FIG6 = [
     "225 C against {w25:.0f} rpm at 25 C), and removing the thermal backlash widens it again",
     "({w225f:.0f} rpm) and moves it to lower speed, as in the paper's conclusion that enough backlash for",
     "the thermal expansion reduces chaos.",
-]
-REPORT_STIFFNESS = [
-    "What the study shows. (1) The direction of the hint 'ISO stiffness would move the band down to about",
-    "13900 rpm' is reversed: a resonance speed grows with sqrt(k), so the ISO-equivalent mesh (x {s_hi:g})",
-    "moves the main band up ({iso_band}); a band at the paper's speeds needs a softer mesh. (2) With",
-    "the softer mesh (x {s_lo:g}) the main band moves to {soft_lo:.0f}-{soft_hi:.0f} rpm at 25 C, about",
-    "{soft_err:.0f} rpm above the paper's lower edge (at scale 1: {base_err:.0f} rpm); the shift is smaller",
-    "than the sqrt(scale) law predicts, consistent with a band that involves a mode with little mesh",
-    "participation (mode table below). (3) With the ISO stiffness a different chaotic window appears",
-    "at 25 C, {iso_win},",
-    "which overlaps the paper's 13500-14700 rpm, but in panels (b) and (c) the same stiffness gives windows",
-    "({iso_b}; {iso_c}) that do not follow the paper's, so this is not a consistent match. (4) The",
-    "1000 rpm bearing forces do not depend on the mesh stiffness (within {f7_spread:.1f} %), the 14400 rpm",
-    "forces change by a few per cent and keep 225 C above 125 C at every scale, and the force peak moves",
-    "from {peak_lo:.0f} to {peak_hi:.0f} rpm. (5) The cold 19000 rpm amplitude of Fig 8 grows with the",
-    "stiffness, not monotonically ({u25_lo:.1f} to {u25_hi:.1f} um; paper 9.8 um). Conclusion: the mesh",
-    "stiffness, which the",
-    "paper does not give numerically, explains part of the Fig 6 band offset and the location of the",
-    "Fig 7 peak; no single scale reproduces the paper's Fig 6 windows, its 14400 rpm points and its cold",
-    "Fig 8 amplitude together, so the remaining differences point to other unstated model details (mass",
-    "and inertia model of the gears, how load and drive are applied) rather than the mesh stiffness alone.",
-    "",
-    "Modes of the model linearised with the mean mesh stiffness (25 C; modes with >= 5 % of their strain",
-    "energy in the mesh, below 20 kHz; the speed is where the mesh frequency 29 n / 60 equals the mode):",
 ]

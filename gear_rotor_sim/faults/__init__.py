@@ -19,6 +19,8 @@ from gear_rotor_sim.faults.bearing import (
     inner_race_defect,
     load_zone,
     outer_race_defect,
+    static_bearing_force,
+    static_load_angle,
 )
 from gear_rotor_sim.faults.gear import (
     GearEccentricity,
@@ -68,6 +70,8 @@ __all__ = [
     "load_zone",
     "mesh_wear_profile",
     "outer_race_defect",
+    "static_bearing_force",
+    "static_load_angle",
     "tilted_contact_offset",
     "tilted_contact_stiffness_factor",
     "tooth_share",

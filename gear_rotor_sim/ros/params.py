@@ -11,6 +11,7 @@ on-set-parameters callbacks.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -396,6 +397,21 @@ def declare(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]:
         spec.check(value)
         values[spec.name] = value
     return values
+
+
+def check_unknown_overrides(node: Node, node_name: str, specs: Sequence[ParamSpec]) -> None:
+    """Raise :class:`ParamError` listing the start-up overrides of ``node`` that ``specs`` does not
+    declare, each with the closest declared name as a hint (rclpy's own parameters are allowed)."""
+    known = {s.name for s in specs} | {"use_sim_time", "start_type_description_service"}
+    overrides = getattr(node, "_parameter_overrides", {}) or {}
+    unknown = sorted(set(overrides) - known)
+    if unknown:
+        hints = {u: difflib.get_close_matches(u, known, n=1) for u in unknown}
+        raise ParamError(
+            f"unknown parameter(s) for node {node_name}: "
+            + ", ".join(f"{u!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for u, h in hints.items())
+            + "; see docs/ros.md or config/simulator_node.yaml for the declared parameters"
+        )
 
 
 def spec_by_name(specs: Sequence[ParamSpec]) -> dict[str, ParamSpec]:

@@ -261,7 +261,7 @@ def _state_force(s: int, dm: float, dmd: float, k: float, c: float, b: float, f_
     return f_now
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def _solve_meshes(
     s_prev: np.ndarray,
     forced: int,
@@ -343,7 +343,7 @@ def _solve_meshes(
     return 1 if its < 0 else 0
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _locate_crossing(dma: float, dmda: float, dmb: float, dmdb: float, b: float, hw: float) -> float:
     """Fraction in (0, 1) of a (sub)step of length ``hw`` at which ``delta_m`` first crosses +-b*.
 
@@ -392,7 +392,7 @@ def _lerp(a: float, b: float, th: float) -> float:
     return b if th == 1.0 else a + th * (b - a)
 
 
-@njit(cache=True, fastmath=_FM, error_model="numpy")
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _affine_forces(
     base: np.ndarray,
     resp: tuple,
@@ -839,6 +839,26 @@ def _event_step(
 # the chunk
 
 
+@njit(cache=True, error_model="numpy", _nrt=True)
+def _emit_block(
+    hbuf: np.ndarray, hb: int, cstack: np.ndarray, dfeed_static: np.ndarray, out: np.ndarray, o0: int
+) -> None:
+    """Outputs of ``hb`` buffered steps ``[z_r, z_i, beta]`` by one matrix product (BLAS) into
+    ``out[o0 : o0 + hb]``, plus the static feed-through (a call every ``hbuf.shape[0]`` steps)."""
+    blk = out[o0 : o0 + hb]
+    np.dot(hbuf[:hb], cstack, blk)
+    no = cstack.shape[1]
+    for r in range(hb):
+        for c in range(no):
+            blk[r, c] += dfeed_static[c]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _copy_int(src: np.ndarray, dst: np.ndarray) -> None:
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
 @njit(cache=True, fastmath=_FM, error_model="numpy", nogil=True)
 def run_chunk_gear(
     modal: tuple,
@@ -884,27 +904,18 @@ def run_chunk_gear(
     -------
     (status, step, n_failed_mesh_solves, n_substeps)
     """
-    zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2, _vrr, _vri, _mur, _mui, pmr, _pmi = modal
-    pq, pqn, pq_static, _rstat, pd, pv, mesh_par = mesh
-    phase, phase_rate, kfac, te_add, ted_add, ampl = exc
-    tab_kf, tab_cf, jflag, _tab_k, _tab_c, jump_p, _jump_k, _jump_c, n_jump = tables
-    beta_prev, ypred, state, mcarry = carry
-    cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs
-    swr = swr2.ravel()
-    swi = swi2.ravel()
-    crr = crr2.ravel()
-    cri = cri2.ravel()
+    zr = modal[0]
+    swr2, swi2, crr2, cri2 = modal[6], modal[7], modal[8], modal[9]
+    pmr = modal[14]
+    pq, pqn, _pq_static, _rstat, pd, pv, mesh_par = mesh
+    phase, phase_rate, _kfac, te_add, ted_add, _ampl = exc
+    beta_prev, _ypred, state, mcarry = carry
     nsteps = phase.shape[0] - 1
     nm = phase.shape[1]
-    nt = tab_kf.shape[1]
-    nb = tab_cf.shape[2]
+    nb = tables[4].shape[2]
     na = beta_prev.shape[0]
-    ne = ampl.shape[1]
-    no = cstack.shape[1]
     nmode = zr.shape[0]
     nf = n_forced
-    e0 = nm * nb
-    has_kfac = kfac.shape[0] > 0
     has_te = te_add.shape[0] > 0
     two_pi = 2.0 * np.pi
     if nsteps == 0:
@@ -981,18 +992,81 @@ def run_chunk_gear(
     # mesh that does not exist, or beyond nb, point at a zero row)
     fused = fuse and nm <= 2 and nb <= 4
     zero = np.zeros(max(nf, 1))
-    zfr = zr[:nf]
-    zfi = zi[:nf]
-    rfr = rr[:nf]
-    rfi = ri[:nf]
-    c0fr = c0r[:nf]
-    c0fi = c0i[:nf]
     gr = np.zeros(nf)  # effect-column increments of a step
     gi = np.zeros(nf)
     qa = np.full(8, -1, dtype=np.int64)  # active column of each fused slot (-1: none)
     for i in range(min(nm, 2)):
         for j in range(min(nb, 4)):
             qa[4 * i + j] = i * nb + j
+    flat = (swr2.ravel(), swi2.ravel(), crr2.ravel(), cri2.ravel())
+    wk = (beta_new, alpha, coef, kk, ee, ed, a1, b1, am, bm, cm, bst, new_state, trial, force, swork, srhs)
+    fz = (zero, gr, gi, qa, qb_full, resp_full, mats, flat)
+    return _run_loop(
+        modal, nf, mesh, tables, exc, carry, outs, dt, locate, bound, fused, expo, mu_max, wk, fz, ev, wtup,
+        prev, cur,
+    )  # fmt: skip
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", nogil=True, _nrt=False)
+def _run_loop(
+    modal: tuple,
+    nf: int,
+    mesh: tuple,
+    tables: tuple,
+    exc: tuple,
+    carry: tuple,
+    outs: tuple,
+    dt: float,
+    locate: bool,
+    bound: float,
+    fused: bool,
+    expo: bool,
+    mu_max: float,
+    wk: tuple,
+    fz: tuple,
+    ev: tuple,
+    wtup: tuple,
+    prev: tuple,
+    cur: tuple,
+) -> tuple[int, int, int, int]:
+    """The step loop of :func:`run_chunk_gear`, compiled without the numba runtime.
+
+    Everything it needs is allocated by :func:`run_chunk_gear` and handed over grouped by role
+    (``wk`` mesh-solve work, ``fz`` fused-update work, ``ev`` / ``wtup`` event-step work, ``prev`` /
+    ``cur`` per-mesh state); this function allocates nothing (the output block product is the call
+    :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking, views, the inlined
+    :func:`_event_step`'s ~80 arrays) costs no atomic reference-count increment and decrement: with
+    it, the event steps spent about half their time in them at 20000 rpm (docs/solver.md, "Session 8").
+    """
+    zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2, _vrr, _vri, _mur, _mui, _pmr, _pmi = modal
+    pq, pqn, pq_static, _rstat, pd, pv, mesh_par = mesh
+    phase, phase_rate, kfac, te_add, ted_add, ampl = exc
+    tab_kf, tab_cf, jflag, _tab_k, _tab_c, jump_p, _jump_k, _jump_c, n_jump = tables
+    beta_prev, ypred, state, mcarry = carry
+    cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs
+    beta_new, alpha, coef, kk, ee, ed, a1, b1, am, bm, cm, bst, new_state, trial, force, swork, srhs = wk
+    zero, gr, gi, qa, qb_full, resp_full, mats, flat = fz
+    swr, swi, crr, cri = flat
+    bnd, bfe, bmesh, _bkind, _bdest, _allow, endfe, dph, pha, _fev, _phv = ev
+    d_p, dd_p, e_p, ed_p, f_p, s_p = prev
+    nsteps = phase.shape[0] - 1
+    nm = phase.shape[1]
+    nt = tab_kf.shape[1]
+    nb = tab_cf.shape[2]
+    na = beta_prev.shape[0]
+    ne = ampl.shape[1]
+    no = cstack.shape[1]
+    nmode = zr.shape[0]
+    e0 = nm * nb
+    has_kfac = kfac.shape[0] > 0
+    has_te = te_add.shape[0] > 0
+    two_pi = 2.0 * np.pi
+    zfr = zr[:nf]
+    zfi = zi[:nf]
+    rfr = rr[:nf]
+    rfi = ri[:nf]
+    c0fr = c0r[:nf]
+    c0fi = c0i[:nf]
     s0r = swr2[qa[0], :nf] if qa[0] >= 0 else zero[:nf]
     s0i = swi2[qa[0], :nf] if qa[0] >= 0 else zero[:nf]
     s1r = swr2[qa[1], :nf] if qa[1] >= 0 else zero[:nf]
@@ -1018,6 +1092,7 @@ def run_chunk_gear(
     p2i = cri2[1, :nf] if nm > 1 else zero[:nf]
     p3r = crr2[nm + 1, :nf] if nm > 1 else zero[:nf]
     p3i = cri2[nm + 1, :nf] if nm > 1 else zero[:nf]
+
     n_fail = 0
     n_sub = 0
     n_buf = hbuf.shape[0]
@@ -1103,7 +1178,7 @@ def run_chunk_gear(
                 if not (np.isfinite(k) and np.isfinite(e) and np.isfinite(edot)):
                     finite = False
             if not finite:
-                state[:] = s_p
+                _copy_int(s_p, state)
                 return STATUS_NONFINITE, o, n_fail, n_sub
             for q in range(ne):
                 beta_new[e0 + q] = ampl[n, q]
@@ -1196,10 +1271,10 @@ def run_chunk_gear(
                     dd += bm[i, j] * force[j]
                 fi = force[i]
                 if not (np.isfinite(d) and np.isfinite(fi)):
-                    state[:] = s_p
+                    _copy_int(s_p, state)
                     return STATUS_NONFINITE, o, n_fail, n_sub
                 if abs(d) >= bound:
-                    state[:] = s_p
+                    _copy_int(s_p, state)
                     return STATUS_BOUND, o, n_fail, n_sub
                 c = i * nb
                 beta_new[c] = mesh_par[i, 0] * d + mesh_par[i, 1] * dd - coef[i, 0] * fi
@@ -1350,7 +1425,7 @@ def run_chunk_gear(
             n_fail += nfl
             n_sub += nsb
             if status != STATUS_OK:
-                state[:] = s_p
+                _copy_int(s_p, state)
                 return status, o, n_fail, n_sub
             for r in range(2 * nm):  # prediction of the next full step from the new state
                 q0 = r * nmode
@@ -1359,7 +1434,7 @@ def run_chunk_gear(
                     sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
                 ypred[r] = sm
         if not np.isfinite(ypred[0]):
-            state[:] = s_p
+            _copy_int(s_p, state)
             return STATUS_NONFINITE, o, n_fail, n_sub
         # 6. outputs
         for i in range(nm):
@@ -1380,15 +1455,12 @@ def run_chunk_gear(
                 hbuf[hb, 2 * nmode + q] = beta_prev[q]
             hb += 1
             if hb == n_buf or n == nsteps:
-                blk = out[o0 : o0 + hb]
-                np.dot(hbuf[:hb], cstack, blk)
-                for r in range(hb):
-                    for c in range(no):
-                        blk[r, c] += dfeed_static[c]
+                _emit_block(hbuf, hb, cstack, dfeed_static, out, o0)
                 o0 += hb
                 hb = 0
-    state[:] = s_p
-    mcarry[0, :] = d_p
-    mcarry[1, :] = dd_p
-    mcarry[2, :] = f_p
+    _copy_int(s_p, state)
+    for i in range(nm):
+        mcarry[0, i] = d_p[i]
+        mcarry[1, i] = dd_p[i]
+        mcarry[2, i] = f_p[i]
     return STATUS_OK, nsteps, n_fail, n_sub
