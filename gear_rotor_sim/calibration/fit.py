@@ -50,10 +50,16 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
+from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
 from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_applies, refine_depth_by_ratios
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
-from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
+from gear_rotor_sim.calibration.comb_families import (
+    FUNDAMENTAL_FAMILY,
+    FUNDAMENTAL_SHARE,
+    comb_gain_by_family,
+    fundamental_present,
+    significant_families,
+)
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
     mesh_channels,
@@ -383,10 +389,15 @@ class Calibrator:
         return self.cmp.score(feats).balanced_chi2
 
     def _path_mask(self, e: Effect | None) -> np.ndarray | None:
-        """Bearing channels whose transfer of ``e``'s signature is a fitted nuisance: a damaged tooth
-        where the teeth separate (``fault_path.py``); None otherwise."""
+        """Channels whose transfer of ``e``'s signature is a fitted nuisance where the teeth separate
+        (``fault_path.py``): the radial bearing channels for a damaged tooth, every channel but the axial
+        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise."""
         mask = getattr(self.cmp, "fault_path", None)
-        return mask if isinstance(e, ToothDamage) and mask is not None else None
+        if mask is None:
+            return None
+        if isinstance(e, GearMisalignment):
+            return misalignment_path(self.cmp.names)
+        return mask if isinstance(e, ToothDamage) else None
 
     def _full_features(self, raw: np.ndarray, e: Effect | None = None) -> ModelFeatures:
         """Features of a full run plus the correction left by an accepted effect whose bearing-channel
@@ -827,6 +838,15 @@ class Calibrator:
                     "tooth"
                 )
                 ok = False
+            elif fams and self._path_mask(e) is not None and not fundamental_present(fams, sig):
+                # where the teeth separate rattle components lock onto several shaft orders at once
+                self.notes.append(
+                    f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
+                    f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
+                    "of its other families: a once-per-revolution event raises its fundamental with its "
+                    "harmonics (comb_families.py)"
+                )
+                ok = False
         # share of the comb's own excess it explains (its relative signature), used next to the
         # share of the whole excess: model-form misfit of the carriers must not mask a comb that
         # the tooth explains
@@ -1040,14 +1060,14 @@ class Calibrator:
         fb = self._full_features(rb, eff)
         if self._path_mask(eff) is not None:
             self.notes.append(
-                f"{eff.label} at depth {xb:.3g}: its response at the bearing channels taken as the model's "
-                "times a fitted transfer factor ("
+                f"{eff.label} at {main.name} {xb:.3g}: its response at these channels taken as the "
+                "model's times a fitted transfer factor ("
                 + ", ".join(
                     f"{n} {a:.2g}"
                     for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(eff), strict=True)
                     if m
                 )
-                + "; fault_path.py): the depth and the tooth are set by the channels at the mesh"
+                + "; fault_path.py): its parameters are set by the other channels"
             )
         return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
 
