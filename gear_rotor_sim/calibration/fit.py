@@ -53,6 +53,7 @@ from scipy.optimize import minimize_scalar
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
 from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_applies, refine_depth_by_ratios
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import (
     FUNDAMENTAL_FAMILY,
     FUNDAMENTAL_SHARE,
@@ -483,6 +484,31 @@ class Calibrator:
             eff.label,
             reported_parameters(eff),
             {"offset_c": sig},
+            float(_logistic(dbic / 2)),
+            float(dbic),
+            float(expl),
+            score.error,
+            sc.error,
+            eff,
+        )
+
+    def _wear_screen(self, score: Score) -> FoundEffect | None:
+        """Tooth wear from the DTE mean against a held reference (``candidates_wear_reference.py``)."""
+        hit = screen_wear_on_dte_mean(self, score)
+        if hit is None:
+            return None
+        eff, sc, sig = hit
+        N = score.n_total
+        dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(N)
+        expl = (score.balanced_chi2 - sc.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+        self.log(
+            f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
+        )
+        return FoundEffect(
+            effect_name(eff),
+            eff.label,
+            reported_parameters(eff),
+            {"wear_depth_m": sig},
             float(_logistic(dbic / 2)),
             float(dbic),
             float(expl),
@@ -1341,10 +1367,20 @@ class Calibrator:
             "source": "reference record" if self.fixed_carrier_tolerance is not None else "this record",
         }
         self.log(f"baseline-updated model: error {cur_score.error:.3g} (carrier tolerance {ctol:.3g})")
+        # with a reference's mesh stiffness held, the DTE mean gives the wear (candidates_wear_reference.py)
+        wear = self._wear_screen(cur_score)
+        if wear is not None:
+            self.pre_effects.append(wear.effect)
+            self._sig_cache.clear()
+            self._sig_checked.clear()
+            self.base_raw = cur_raw = self._raw(())
+            self._refit_transfer(self._features(self.base_raw))
+            cur_feat = self._features(cur_raw)
+            cur_score = self.cmp.score(cur_feat)
         accepted: list[Effect] = list(self.pre_effects)
-        found: list[FoundEffect] = [screened] if screened is not None else []
-        if screened is not None:
-            screened.error_after = float(cur_score.error)
+        found: list[FoundEffect] = [f for f in (screened, wear) if f is not None]
+        if found:
+            found[-1].error_after = float(cur_score.error)
         not_claimed: list[FoundEffect] = []
         rejected_labels: set[str] = set()
         rounds: list[list[dict[str, Any]]] = []
