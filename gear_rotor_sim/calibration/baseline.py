@@ -12,6 +12,10 @@ operating point, and why:
   the tooth-pair and bearing stiffnesses of Eq 13-15 and Eq 37, which do not depend on the speed;
   the temperature dependence stays in the model (E(T), thermal preload), so they also hold at
   another temperature;
+* consequence of the carried mesh scale: the static transmission error ``b + F/k`` of the healthy
+  machine is known at the record's operating point, so a DTE mean above it reads as flank wear
+  (``candidates_wear_reference.py``; the wear is found before the ranking, like a screened
+  temperature);
 * **carried**: the model-form tolerance of the mesh carriers (the median relative misfit of the
   carriers after the baseline update, ``carrier_tolerance``). It is dimensionless (a fraction of the
   carrier amplitude), so it applies unchanged to the carriers of another speed, whose absolute
