@@ -250,8 +250,31 @@ def test_missing_bore_is_named() -> None:
         p.mesh_stiffness_table(25.0)
 
 
-def test_validation_rows_shape() -> None:
-    rows = gear_rows()
-    assert len(rows) >= 6
-    for row in rows:
-        assert set(row) == {"check", "reference", "ours", "error"}
+def test_validation_rows_against_hand_values() -> None:
+    """The gear rows of docs/validation.md (validation_report.gear_rows) hold the numbers worked out by
+    hand for Table 3's pair: contact ratio 1.6985 (textbook closed form); ISO 6336-1
+    q' = 0.04723 + 0.15551/29 + 0.25791/49 = 0.057856 mm um/N, c' = 0.8 / q' x 207/206 = 13.895 N/(mm um),
+    c_gamma b = c' (0.75 x 1.6985 + 0.25) x 20 mm = 4.2347e8 N/m; E(225)/E(25) = 189/207 (Table 1); at
+    225 C (dT = 200 C, l = 1.17e-5) the pitch-point profile error -dT l m cos(20 deg) pi / 4 = -5.1810 um
+    on both wheels (r_b / z is the same) and b* = 35 - 5.1810 = 29.8190 um."""
+    rows = {r["check"].split(" (")[0].split(",")[0]: r for r in gear_rows()}
+    assert all(set(r) == {"check", "reference", "ours", "error"} for r in rows.values())
+
+    def first(text: str) -> float:
+        return float(text.split()[0])
+
+    eps = rows["contact ratio 29/49"]
+    assert first(eps["reference"]) == pytest.approx(1.6985, abs=5e-5)
+    assert abs(first(eps["ours"]) - 1.6985) <= 1.0 / 512  # the 512-point phase grid
+    iso = rows["mean mesh stiffness at 25 C vs ISO 6336-1 c_gamma_alpha b"]
+    assert first(iso["reference"]) == pytest.approx(4.2347e8, rel=2e-4)
+    assert 0.70 <= first(iso["ours"]) / first(iso["reference"]) <= 1.30
+    assert first(rows["mean stiffness ratio k(225 C)/k(25 C) vs E(225)/E(25)"]["reference"]) == pytest.approx(
+        189.0 / 207.0, abs=5e-5
+    )
+    de = -200.0 * 1.17e-5 * 3e-3 * math.cos(ALPHA) * math.pi / 4.0 * 1e6  # um
+    assert de == pytest.approx(-5.1810, abs=5e-5)
+    for wheel in ("pinion", "gear"):
+        assert first(rows[f"thermal profile error {wheel} at 225 C"]["ours"]) == pytest.approx(de, abs=5e-5)
+    b_star = rows["thermal half backlash b* at 225 C"]
+    assert first(b_star["ours"]) == pytest.approx(35.0 + de, abs=5e-5)

@@ -15,9 +15,10 @@ What is computed
   damping ratio, friction coefficient, shaft Rayleigh damping).
 * Solver benchmark: steps per second and real-time factors at 3000 and 20000 rpm.
 
-This module holds the plan (how much to compute), :func:`compute` (the Fig 6-10 runs in order) and
-the command line. The side studies are in :mod:`~gear_rotor_sim.analysis.reproduce_studies`, the
-solver numbers in :mod:`~gear_rotor_sim.analysis.reproduce_bench`, the window algebra in
+This module holds the plan (how much to compute), :func:`compute` (the studies in order) and the
+command line. Elsewhere: the Fig 6-10 runs in :mod:`~gear_rotor_sim.analysis.reproduce_figs`, the
+side studies in :mod:`~gear_rotor_sim.analysis.reproduce_studies`, the solver numbers in
+:mod:`~gear_rotor_sim.analysis.reproduce_bench`, the window algebra in
 :mod:`~gear_rotor_sim.analysis.bands`, the ``--json`` object in
 :mod:`~gear_rotor_sim.analysis.reproduce_json`, the paper's numbers in
 :mod:`~gear_rotor_sim.analysis.paper_data` and the Markdown report in
@@ -44,24 +45,27 @@ from gear_rotor_sim.analysis.bands import (  # noqa: F401 (re-exported: readings
     merge_windows,
     overlap_near,
 )
-from gear_rotor_sim.analysis.bifurcation import BifurcationResult, Case, RunSettings
+from gear_rotor_sim.analysis.bifurcation import RunSettings
 from gear_rotor_sim.analysis.paper_data import (
     INV_ISO_SCALE,
     ISO_SCALE,
-    PANEL_TITLES,
     PANELS,
-    PAPER_CHAOS,
-    PAPER_FIG7,
-    PAPER_FIG8,
-    PAPER_POINTS,
     STIFFNESS_SCALES,
-    rel_error,
 )
 from gear_rotor_sim.analysis.reproduce_bench import (  # noqa: F401 (re-exported: benchmarks, docs)
     ACCURACY_POINTS,
     REFERENCE_STEPS_PER_MESH,
     benchmark,
     default_against_full,
+)
+from gear_rotor_sim.analysis.reproduce_figs import (
+    DEFAULT_CONFIG,
+    Output,
+    config_extras,
+    fig6_numbers,
+    fig6_runs,
+    fig7_numbers,
+    figs8_10_numbers,
 )
 from gear_rotor_sim.analysis.reproduce_json import printed_json, summary_json  # noqa: F401
 from gear_rotor_sim.analysis.reproduce_studies import (  # noqa: F401 (re-exported)
@@ -74,12 +78,8 @@ from gear_rotor_sim.analysis.reproduce_studies import (  # noqa: F401 (re-export
     static_axial_estimate,
     stiffness_study,
 )
-from gear_rotor_sim.analysis.reproduction_report import PUBLISHED_CONFIG, write_report
-from gear_rotor_sim.analysis.sweep import grid_cases
+from gear_rotor_sim.analysis.reproduction_report import write_report
 from gear_rotor_sim.examples import PAPER_CONFIGS
-
-#: The configuration of the main reproduction (the physically consistent model).
-DEFAULT_CONFIG = PAPER_CONFIGS[0]
 
 
 # ----------------------------------------------------------------------------------------------- plan
@@ -192,16 +192,6 @@ def _data_dir(out: Path) -> Path:
     return d
 
 
-def _loadavg() -> float:
-    """1-minute load average (NaN where unavailable)."""
-    try:
-        import os
-
-        return float(os.getloadavg()[0])
-    except (AttributeError, OSError):
-        return float("nan")
-
-
 # ----------------------------------------------------------------------------------------------- the run
 def compute(
     plan: Plan,
@@ -217,8 +207,6 @@ def compute(
     non-default one writes its figures to ``out/figures/<config>/``, prefixes its caches with the
     name and adds the finely resolved Fig 6a main band (:func:`refine_main_band`).
     """
-    from gear_rotor_sim.analysis import figures
-
     data_dir = _data_dir(out)
     tag = "" if config == DEFAULT_CONFIG else f"{config}_"
     fig_dir = out / "figures" if config == DEFAULT_CONFIG else out / "figures" / config
@@ -226,144 +214,17 @@ def compute(
     r: dict[str, Any] = {"level": plan.name, "config": config}
     runner = Runner(workers, scheduler, progress)
 
-    # Fig 6 ---------------------------------------------------------------------------------------
-    bif: dict[str, BifurcationResult] = {}
-    load_avg: dict[str, list[float]] = {}
-    for key, case in panels.items():
-        load_before = _loadavg()
-        res = runner.bifurcation(case, np.array(plan.fig6_speeds), plan.fig6)
-        load_avg[key] = [load_before, _loadavg()]
-        res.meta["loadavg_1min_before_after"] = load_avg[key]
-        res.save(data_dir / f"{tag}fig6_{key}.npz")
-        bif[key] = res
-    figures.plot_bifurcation(
-        [bif[k] for k in PANELS],
-        fig_dir / "fig6_bifurcation.png",
-        [PANEL_TITLES[k] for k in PANELS],
-        [PAPER_CHAOS[k] for k in PANELS],
-    )
-    fig6: dict[str, Any] = {}
-    for key, res in bif.items():
-        labels = res.labels()
-        model_chaos = res.chaotic_windows(merge_gap=1)
-        windows = res.windows()
-        low = (res.speeds_rpm >= 500) & (res.speeds_rpm <= 7300)
-        fig6[key] = {
-            "case": res.case.label(),
-            "n_speeds": int(res.speeds_rpm.size),
-            "n_periods": res.settings.n_periods,
-            "wall_time_s": res.wall_time_s,
-            "workers": res.meta.get("workers"),
-            "loadavg_1min_before_after": load_avg[key],
-            "period1_fraction_500_7300": float(
-                np.mean([lab == "period-1" for lab, m in zip(labels, low, strict=True) if m])
-            ),
-            "chaotic_windows": model_chaos,
-            "paper_chaotic_windows": list(PAPER_CHAOS[key]),
-            "main_window_vs_paper": [overlap_near(model_chaos, w) for w in PAPER_CHAOS[key]],
-            "sequence": condense_windows(windows, 3, res.speeds_rpm),
-            "counts": {lab: int(sum(1 for x in labels if x == lab)) for lab in sorted(set(labels))},
-        }
-    fig6["points"] = [(k, s, p, label_at(bif[k], s)) for k, s, p in PAPER_POINTS]
-    r["fig6"] = fig6
+    # Figs 6-10 ------------------------------------------------------------------------------------
+    o = Output(data_dir, fig_dir, tag)
+    bif, load_avg = fig6_runs(plan, runner, panels, o)
+    r["fig6"] = fig6_numbers(bif, load_avg)
     if config != DEFAULT_CONFIG:
-        main = {
-            c: max(mesh_modes(1.0, config=c), key=lambda m: m["mesh_energy"])
-            for c in (DEFAULT_CONFIG, config)
-        }
-        r["mesh_mode"] = {
-            "default_hz": main[DEFAULT_CONFIG]["f_hz"],
-            "default_rpm": main[DEFAULT_CONFIG]["speed_rpm"],
-            "config_hz": main[config]["f_hz"],
-            "config_rpm": main[config]["speed_rpm"],
-        }
-        r["fig6_25c_main_band_fine"] = refine_main_band(
-            panels["25C"], bif["25C"].chaotic_windows(merge_gap=1), plan.fig6
-        )
-        if config == PUBLISHED_CONFIG and plan.name != "tiny":
-            from gear_rotor_sim.analysis.readings import edge_sensitivity, readings_study
-
-            # readings of the paper's text tried against the Fig 6 bands (docs/REPRODUCTION.md), and
-            # the 25 C band against the parameters the paper does not give
-            r["readings"] = readings_study(plan.fig6, np.array(plan.fig6_speeds))
-            r["edge_sensitivity"] = edge_sensitivity(plan.fig6)
+        r.update(config_extras(plan, config, panels, bif))
     if plan.single_speed_figures:
         single_speed_figures(fig_dir, plan)
-
-    # Fig 7 ---------------------------------------------------------------------------------------
-    s7 = runner.sweep(
-        _with_config(grid_cases([25.0, 125.0, 225.0], ["A#"]), config), np.array(plan.fig7_speeds), plan.sweep
-    )
-    s7.save(data_dir / f"{tag}fig7_sweep.npz")
-    figures.plot_bearing_force(
-        s7, fig_dir / "fig7_bearing_force.png", paper_points=[(t, s, f) for t, s, f in PAPER_FIG7]
-    )
-    r["fig7"] = [
-        {
-            "temperature_c": t,
-            "speed_rpm": s,
-            "paper_n": f,
-            "model_n": float(s7.get("bearing_total_rms", s7.index(t), s)[1]),
-            "model_rms_xyz_n": [float(v) for v in s7.get("bearing_rms", s7.index(t), s)[1]],
-        }
-        for t, s, f in PAPER_FIG7
-    ]
-    for row in r["fig7"]:
-        row["rel_error"] = rel_error(row["model_n"], row["paper_n"])
-    r["fig9_1000rpm_A"] = {
-        f"{t:g}": {
-            k: [float(v) for v in s7.force_shares(s7.index(t), 1000.0, 2, k)] for k in ("rms", "power")
-        }
-        for t in (25.0, 125.0, 225.0)
-    }
-
-    # Figs 8-10 ------------------------------------------------------------------------------------
-    s19 = runner.sweep(
-        _with_config(grid_cases([25.0, 125.0, 225.0], list(plan.fig8_bearings)), config),
-        np.array([19000.0]),
-        plan.sweep,
-    )
-    s19.save(data_dir / f"{tag}fig8_10_sweep_19000rpm.npz")
-    bts = list(plan.fig8_bearings)
-    figures.plot_displacement(
-        s19,
-        fig_dir / "fig8_displacement.png",
-        19000.0,
-        bearing_types=bts,
-        paper_points=[p for p in PAPER_FIG8 if p[0] in bts],
-    )
-    figures.plot_force_share(s19, fig_dir / "fig9_force_share.png", 19000.0, bearing_types=bts, kind="power")
-    figures.plot_orbit(s19, fig_dir / "fig10_orbit.png", 19000.0, bearing_types=bts)
-    r["fig8"] = [
-        {
-            "bearing_type": bt,
-            "temperature_c": t,
-            "node": n,
-            "paper_um": v,
-            "model_um": float(s19.get("node_amp_max", s19.index(t, bt), 19000.0)[n - 1] * 1e6),
-            "model_rms_um": float(s19.get("node_amp_rms", s19.index(t, bt), 19000.0)[n - 1] * 1e6),
-            "static_estimate_um": static_axial_estimate(t, bt)["displacement_um"]
-            if t != 25.0
-            else float("nan"),
-        }
-        for bt, t, n, v in PAPER_FIG8
-        if bt in bts
-    ]
-    for row in r["fig8"]:
-        row["rel_error"] = rel_error(row["model_um"], row["paper_um"])
-    r["fig9_19000rpm"] = {
-        f"{bt} {t:g}": {
-            k: [float(v) for v in s19.force_shares(s19.index(t, bt), 19000.0, 2, k)] for k in ("rms", "power")
-        }
-        for bt in bts
-        for t in (25.0, 125.0, 225.0)
-    }
-    r["fig10_orbit_center_um"] = {
-        f"{bt} {t:g}": [float(v) for v in s19.get("orbit", s19.index(t, bt), 19000.0)[0].mean(axis=0) * 1e6]
-        for bt in bts
-        for t in (25.0, 125.0, 225.0)
-    }
-    r["static_axial"] = {f"{t:g}": static_axial_estimate(t) for t in (125.0, 225.0)}
+    s7, fig7 = fig7_numbers(plan, runner, config, o)
+    r.update(fig7)
+    r.update(figs8_10_numbers(plan, runner, config, o))
 
     # Sensitivity ---------------------------------------------------------------------------------
     if plan.sensitivity:
@@ -378,10 +239,6 @@ def compute(
         plan.bench_duration_s, quick=plan.name != "full", use_script=plan.name != "tiny"
     )
     return r
-
-
-def _with_config(cases: list[Case], config: str) -> list[Case]:
-    return [dataclasses.replace(c, config=config) for c in cases]
 
 
 # ----------------------------------------------------------------------------------------------- CLI

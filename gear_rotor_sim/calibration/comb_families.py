@@ -14,6 +14,18 @@ component, not a tooth; and one whose gain sits in two families explains two suc
 claimed only if its comb gain is significant in at least three of the six families
 (:func:`significant_families`).
 
+Where the teeth separate the rattle can lock components onto several shaft orders at once (the
+independent lumped gearbox at 8000 rpm with 20 um of tooth wear: pinion comb content in the families
+2, 3, 4 and 6, none in family 1; a pinion tooth of depth 0.16 fitted it, comb gains 2.1e3-5.8e3 in
+those four families and 6 in family 1). A damaged tooth is a short event once per revolution of its
+wheel: its order spectrum is flat over the first few orders (``|c_j| ~ |c_1|`` for ``j << z``), so
+its fundamental family ``j = 1`` (order 1 and ``m z +- 1``) gains with the others. There a tooth
+candidate's gain in family :data:`FUNDAMENTAL_FAMILY` must be significant and at least
+:data:`FUNDAMENTAL_SHARE` of the median gain of its other families (:func:`fundamental_present`;
+``fit.py``, with the rattle rules of ``features_rattle.py``). Measured ratios (family 1 / median of
+the others) on the lumped records at 8000 rpm: damaged pinion tooth 0.50, damaged gear tooth 1.09;
+worn teeth 0.11 (1 s record) and 0.002 (2 s record).
+
 The family of a shaft order ``o`` of a wheel with ``z`` teeth is ``j = min(o mod z, z - o mod z)``,
 its distance to the nearest mesh harmonic (``j = o`` for the low orders); carriers (``j = 0``) are
 not part of the comb.
@@ -24,6 +36,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
+#: the sideband family of a once-per-revolution event's fundamental (order 1 and ``m z +- 1``)
+FUNDAMENTAL_FAMILY = 1
+#: smallest gain of the fundamental family relative to the median gain of the other families
+FUNDAMENTAL_SHARE = 0.25
 
 
 def sideband_family(orders: np.ndarray, teeth: int) -> np.ndarray:
@@ -68,3 +85,17 @@ def significant_families(families: dict[int, float], floor: float, share: float)
     best = max(families.values())
     keep = [j for j, v in families.items() if v > floor and v >= share * best]
     return sorted(keep, key=lambda j: -families[j])
+
+
+def fundamental_present(
+    families: dict[int, float], significant: list[int], share: float = FUNDAMENTAL_SHARE
+) -> bool:
+    """Whether the fundamental family gains with the others: significant and at least ``share`` of the
+    median gain of the other families (a short event's order spectrum is flat over the first orders,
+    so the ratio is near 1 for a damaged tooth; ``share`` leaves a factor 4 for the path's variation
+    over the families)."""
+    if FUNDAMENTAL_FAMILY not in significant:
+        return False
+    # a family left out of the features (a locked component, features_rattle.py) gains exactly 0
+    others = [v for j, v in families.items() if j != FUNDAMENTAL_FAMILY and v != 0.0]
+    return not others or families[FUNDAMENTAL_FAMILY] >= share * float(np.median(others))

@@ -50,9 +50,17 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment
+from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
+from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_applies, refine_depth_by_ratios
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
-from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, significant_families
+from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
+from gear_rotor_sim.calibration.comb_families import (
+    FUNDAMENTAL_FAMILY,
+    FUNDAMENTAL_SHARE,
+    comb_gain_by_family,
+    fundamental_present,
+    significant_families,
+)
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
     mesh_channels,
@@ -128,6 +136,8 @@ class CandidateFit:
     explained: float = 0.0
     feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
     comb_explained: float = 0.0  # share of the order-comb excess explained (tooth damage)
+    #: a baseline set fitted with the effect (a tooth's ratio depth held: the mesh stiffness scale)
+    baseline_set: Effect | None = None
 
     @property
     def name(self) -> str:
@@ -380,10 +390,15 @@ class Calibrator:
         return self.cmp.score(feats).balanced_chi2
 
     def _path_mask(self, e: Effect | None) -> np.ndarray | None:
-        """Bearing channels whose transfer of ``e``'s signature is a fitted nuisance: a damaged tooth
-        where the teeth separate (``fault_path.py``); None otherwise."""
+        """Channels whose transfer of ``e``'s signature is a fitted nuisance where the teeth separate
+        (``fault_path.py``): the radial bearing channels for a damaged tooth, every channel but the axial
+        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise."""
         mask = getattr(self.cmp, "fault_path", None)
-        return mask if isinstance(e, ToothDamage) and mask is not None else None
+        if mask is None:
+            return None
+        if isinstance(e, GearMisalignment):
+            return misalignment_path(self.cmp.names)
+        return mask if isinstance(e, ToothDamage) else None
 
     def _full_features(self, raw: np.ndarray, e: Effect | None = None) -> ModelFeatures:
         """Features of a full run plus the correction left by an accepted effect whose bearing-channel
@@ -469,6 +484,31 @@ class Calibrator:
             eff.label,
             reported_parameters(eff),
             {"offset_c": sig},
+            float(_logistic(dbic / 2)),
+            float(dbic),
+            float(expl),
+            score.error,
+            sc.error,
+            eff,
+        )
+
+    def _wear_screen(self, score: Score) -> FoundEffect | None:
+        """Tooth wear from the DTE mean against a held reference (``candidates_wear_reference.py``)."""
+        hit = screen_wear_on_dte_mean(self, score)
+        if hit is None:
+            return None
+        eff, sc, sig = hit
+        N = score.n_total
+        dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(N)
+        expl = (score.balanced_chi2 - sc.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+        self.log(
+            f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
+        )
+        return FoundEffect(
+            effect_name(eff),
+            eff.label,
+            reported_parameters(eff),
+            {"wear_depth_m": sig},
             float(_logistic(dbic / 2)),
             float(dbic),
             float(expl),
@@ -824,6 +864,15 @@ class Calibrator:
                     "tooth"
                 )
                 ok = False
+            elif fams and self._path_mask(e) is not None and not fundamental_present(fams, sig):
+                # where the teeth separate rattle components lock onto several shaft orders at once
+                self.notes.append(
+                    f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
+                    f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
+                    "of its other families: a once-per-revolution event raises its fundamental with its "
+                    "harmonics (comb_families.py)"
+                )
+                ok = False
         # share of the comb's own excess it explains (its relative signature), used next to the
         # share of the whole excess: model-form misfit of the carriers must not mask a comb that
         # the tooth explains
@@ -1007,17 +1056,44 @@ class Calibrator:
                     break
         xb, _, rb = min(pts, key=lambda t: t[1])
         eff = e.with_parameters(**{main.name: xb})
+        if isinstance(eff, ToothDamage) and ratio_depth_applies(self):
+            # without a reference the mesh stiffness scale is not identified: the depth is read from
+            # the scale-free sideband energy ratios of the named tooth (candidates_tooth.py)
+            rd = refine_depth_by_ratios(self, eff, accepted)
+            if rd is not None:
+                fr = self._full_features(rd.raw, rd.effect)
+                score = self.cmp.score(fr)
+                chi_abs = min(p[1] for p in pts)
+                # the ratio depth with the mesh scale it implies must explain the whole record better
+                # than the absolute depth at the current scale (BIC, one parameter more)
+                penalty = math.log(self.n_total) if rd.mesh_set is not None else 0.0
+                if score.balanced_chi2 + penalty < chi_abs:
+                    unc = {**fit.uncertainty, "depth": rd.sigma}
+                    return dataclasses.replace(
+                        fit,
+                        effect=rd.effect,
+                        raw=rd.raw,
+                        score=score,
+                        uncertainty=unc,
+                        feats=fr,
+                        baseline_set=rd.mesh_set,
+                    )
+                self.notes.append(
+                    f"{eff.label}: the ratio depth {rd.effect.depth:.3g} is not used: with the mesh scale "
+                    f"it implies the record is explained worse (chi2 {score.balanced_chi2:.4g}) than at the "
+                    f"absolute depth {eff.depth:.3g} (chi2 {chi_abs:.4g})"
+                )
         fb = self._full_features(rb, eff)
         if self._path_mask(eff) is not None:
             self.notes.append(
-                f"{eff.label} at depth {xb:.3g}: its response at the bearing channels taken as the model's "
-                "times a fitted transfer factor ("
+                f"{eff.label} at {main.name} {xb:.3g}: its response at these channels taken as the "
+                "model's times a fitted transfer factor ("
                 + ", ".join(
                     f"{n} {a:.2g}"
                     for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(eff), strict=True)
                     if m
                 )
-                + "; fault_path.py): the depth and the tooth are set by the channels at the mesh"
+                + "; fault_path.py): its parameters are set by the other channels"
             )
         return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
 
@@ -1291,10 +1367,20 @@ class Calibrator:
             "source": "reference record" if self.fixed_carrier_tolerance is not None else "this record",
         }
         self.log(f"baseline-updated model: error {cur_score.error:.3g} (carrier tolerance {ctol:.3g})")
+        # with a reference's mesh stiffness held, the DTE mean gives the wear (candidates_wear_reference.py)
+        wear = self._wear_screen(cur_score)
+        if wear is not None:
+            self.pre_effects.append(wear.effect)
+            self._sig_cache.clear()
+            self._sig_checked.clear()
+            self.base_raw = cur_raw = self._raw(())
+            self._refit_transfer(self._features(self.base_raw))
+            cur_feat = self._features(cur_raw)
+            cur_score = self.cmp.score(cur_feat)
         accepted: list[Effect] = list(self.pre_effects)
-        found: list[FoundEffect] = [screened] if screened is not None else []
-        if screened is not None:
-            screened.error_after = float(cur_score.error)
+        found: list[FoundEffect] = [f for f in (screened, wear) if f is not None]
+        if found:
+            found[-1].error_after = float(cur_score.error)
         not_claimed: list[FoundEffect] = []
         rejected_labels: set[str] = set()
         rounds: list[list[dict[str, Any]]] = []
@@ -1523,6 +1609,33 @@ class Calibrator:
             accepted.append(ver.effect)
             cur_raw = ver.raw
             cur_feat = self._accept_features(ver)
+            if ver.baseline_set is not None:
+                # fitted with the effect (candidates_tooth.py): the machine's nominal value changes
+                b = ver.baseline_set
+                baseline_updates.append(
+                    FoundEffect(
+                        effect_name(b),
+                        b.label,
+                        b.parameters(),
+                        {},
+                        float(p_model),
+                        float(ver.delta_bic),
+                        float(ver.explained),
+                        cur_score.error,
+                        ver.score.error,
+                        b,
+                        "baseline",
+                    )
+                )
+                self.log(f"baseline {b.label} {b.parameters()} with {ver.effect.label}")
+                self.baseline.append(b)
+                self._sig_cache.clear()
+                self._sig_checked.clear()
+                self.base_raw = self._raw(())
+                self._refit_transfer(cur_feat)
+                if self.fixed_carrier_tolerance is None:
+                    ctol = self._carrier_floor(cur_feat, self.cmp.score(cur_feat))
+                    self.cmp.set_carrier_tolerance(ctol)
             cur_score = self.cmp.score(cur_feat)
         else:
             conclusion = f"stopped after {self.fit.max_effects} effects"

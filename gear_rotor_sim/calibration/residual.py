@@ -598,6 +598,8 @@ class Comparison:
         self.v_model_form: list[list[np.ndarray]] | None = None
         #: per-channel model-form tolerance of the order features (replaces ``tolerance`` if larger)
         self.channel_tolerance: np.ndarray | None = None
+        #: orders (per channel and shaft) that ``channel_tolerance`` applies to (None: all)
+        self.channel_tolerance_where: list[list[np.ndarray]] | None = None
         #: sensor gains held at 1 and transfer slopes at 0 (not separable from model-form error)
         self.gains_held = False
         #: time shift held at 0 (the time origin is the shaft-angle reference of the contract)
@@ -971,12 +973,15 @@ class Comparison:
         if model is None:
             return v
         common = np.minimum(np.abs(model), np.abs(self.d_order[c][s]))
-        tol = self.s.tolerance
+        tol: float | np.ndarray = self.s.tolerance
         ct = getattr(self, "carrier_tolerance", tol)
         if self.channel_tolerance is not None:  # measured per channel where the teeth separate
-            tol = max(tol, float(self.channel_tolerance[c]))
-            ct = max(ct, tol)
-        if ct != tol:
+            ch = max(float(tol), float(self.channel_tolerance[c]))
+            ct = max(ct, ch)
+            # on the orders where the healthy model's rattle stands out of the noise (features_rattle.py)
+            where = None if self.channel_tolerance_where is None else self.channel_tolerance_where[c][s]
+            tol = ch if where is None else np.where(where, ch, float(tol))
+        if np.any(ct != tol):
             tol = np.where(self.carriers(s), ct, tol)
         return v + (tol * common) ** 2
 

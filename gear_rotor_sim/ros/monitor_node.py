@@ -37,7 +37,14 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from gear_rotor_sim.indicators import compute_indicators
-from gear_rotor_sim.ros.params import MONITOR_PARAMETERS, ParamError, broadcast, declare, spec_by_name
+from gear_rotor_sim.ros.params import (
+    MONITOR_PARAMETERS,
+    ParamError,
+    broadcast,
+    declare,
+    spec_by_name,
+    updated_values,
+)
 from gear_rotor_sim.ros.simulator_node import DIAGNOSTICS_QOS, RELIABLE_QOS, stream_qos
 from gear_rotor_sim.streams import time_to_stamp
 
@@ -117,17 +124,8 @@ class MonitorNode(Node):
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        new = dict(self._values)
         try:
-            for p in params:
-                spec = self._specs.get(p.name)
-                if spec is None:
-                    continue
-                value = [] if p.value is None else p.value
-                if not isinstance(value, str | bool | int | float):
-                    value = list(value)
-                spec.check(value)
-                new[p.name] = value
+            new = updated_values(self._values, self._specs, params)
         except ParamError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
         self._values = new

@@ -389,14 +389,42 @@ def declare(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]:
     values: dict[str, Any] = {}
     for spec in specs:
         param = node.declare_parameter(spec.name, spec.default, spec.descriptor())
-        value = param.value
-        if value is None:
-            value = []
-        elif isinstance(value, tuple | list) or type(value).__name__ == "array":
-            value = list(value)
+        value = parameter_value(param.value)
         spec.check(value)
         values[spec.name] = value
     return values
+
+
+def parameter_value(value: Any) -> Any:
+    """An rclpy parameter value as the nodes keep it: a scalar or string as is, an array as a list
+    (``[]`` for an unset one)."""
+    if value is None:
+        return []
+    if isinstance(value, str | bool | int | float):
+        return value
+    return list(value)
+
+
+def updated_values(
+    values: dict[str, Any], specs: dict[str, ParamSpec], params: Sequence[Any]
+) -> dict[str, Any]:
+    """A copy of ``values`` with the runtime changes ``params`` (``rclpy.parameter.Parameter``), each
+    checked by its spec; parameters without a spec (rclpy's own, e.g. ``use_sim_time``) are ignored.
+
+    Raises
+    ------
+    ParamError
+        When a new value violates its spec (the message names the parameter).
+    """
+    new = dict(values)
+    for p in params:
+        spec = specs.get(p.name)
+        if spec is None:
+            continue
+        value = parameter_value(p.value)
+        spec.check(value)
+        new[p.name] = value
+    return new
 
 
 def check_unknown_overrides(node: Node, node_name: str, specs: Sequence[ParamSpec]) -> None:

@@ -75,6 +75,7 @@ from gear_rotor_sim.ros.params import (
     check_unknown_overrides,
     declare,
     spec_by_name,
+    updated_values,
 )
 from gear_rotor_sim.ros.stream_noise import NoiseModel, build_noise, check_noise_lengths
 from gear_rotor_sim.streams import StreamSpec, chunk_fields, time_to_stamp
@@ -298,19 +299,8 @@ class SimulatorNode(Node):
         self.get_logger().warning(f"setpoint refused, running state unchanged: {reason}{more}")
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        new = dict(self._values)
         try:
-            for p in params:
-                spec = self._specs.get(p.name)
-                if spec is None:
-                    continue  # e.g. use_sim_time: rclpy's own
-                value = p.value
-                if value is None:
-                    value = []
-                elif not isinstance(value, str | bool | int | float):
-                    value = list(value)
-                spec.check(value)
-                new[p.name] = value
+            new = updated_values(self._values, self._specs, params)
             check_simulator_values(new)
             check_noise_lengths(self._streams, new)
         except ParamError as exc:
