@@ -3,7 +3,7 @@
 - Where the teeth separate, the per-channel model-form tolerance of ``features_rattle.py`` applies
   only at the orders where the healthy model's rattle stands out of the noise; a fault's own content
   at an order where the healthy model has nothing (the order-1 bearing forces of an unbalance) keeps
-  the contact tolerance (docs/calibration.md Sec. 8.10).
+  the contact tolerance (docs/calibration.md Sec. 8.12).
 - The DTE channel of a mesh is found by its contract name.
 """
 

@@ -158,7 +158,7 @@ def test_wear_from_the_dte_mean_against_a_healthy_baseline_at_another_speed(reco
     """20 um of flank wear at 3000 rpm against the 2000 rpm reference: the reference fixes the mesh
     stiffness (hence the static deflection F/k), the record's DTE mean then gives the depth
     (candidates_wear_reference.py). Measured on this 0.6 s record: 18.8 um (-6 %), error 5.14 -> 2.85;
-    the ranking alone fitted 9.9 um on the 2 s benchmark record (docs/calibration.md Sec. 8.10)."""
+    the ranking alone fitted 9.9 um on the 2 s benchmark record (docs/calibration.md Sec. 8.12)."""
     r = _calibrate(records["wear"], **reference.calibrator_kwargs())
     assert r.effects and r.effects[0].name == "tooth_wear", [(e.label, e.parameters) for e in r.effects]
     assert abs(r.effects[0].parameters["wear_depth_m"] - 20e-6) <= 0.25 * 20e-6, r.effects[0].parameters

@@ -9,7 +9,7 @@ percent off. Where the teeth separate that path carries impacts, and the error g
 8000 rpm on a damaged pinion tooth (tooth 7, depth 0.4) of the independent lumped gearbox, the
 FE signature's bearing-force sidebands are 3-5 times the record's at the true depth and their
 phases alone point to teeth 2-3; scored with them at the model's transfer the depth came out at
-0.157 and the tooth at 3 (docs/calibration.md Sec. 8.10).
+0.157 and the tooth at 3 (docs/calibration.md Sec. 8.11).
 
 Rule (applied with the rattle rules of ``features_rattle.py``): a damaged tooth's signature enters
 each bearing channel multiplied by a complex factor ``a_c`` (amplitude and phase of the path at the
@@ -53,7 +53,7 @@ def path_channels(names: Sequence[str]) -> np.ndarray:
     wheel's axial mesh force at its order 1), transmitted by the static load path (a lever rule over
     the bearing stiffnesses), not by the lateral shaft dynamics at kHz: at 8000 rpm the 1 mrad gear
     misalignment's axial force at gear order 1 is 0.730 N in the FE model and 0.717 N in the lumped
-    one (measured, Sec. 8.10)."""
+    one (measured, Sec. 8.11)."""
     return np.array(
         [(n.startswith("bearing") and not n.endswith("_fz")) or n.startswith("housing") for n in names],
         dtype=bool,
