@@ -47,6 +47,14 @@ because the machine is shared.
     and the largest RMS difference of the default stream from it over the channels, % of the channel's
     RMS.
 
+(k) the gear kernel alone (this script only): ``gear_kernel.run_chunk_gear`` on chunks captured from
+    ``Simulator.advance`` (DTE channels) of the paper gearbox at 3000 and 20000 rpm and the two-stage
+    example at 3000 rpm, each with the default (reduced) and the full basis, all in one run: CPU us
+    per step with the events located as the rule has it and with location off on the same chunk,
+    sub-steps per step, the located part per sub-step, forced modes and active columns, and the
+    regular step's cost per forced mode and per (forced mode x column). The per-step profile of the
+    default against the full model and of the two-stage rig against the paper gearbox.
+
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
 reproduce command imports it (``quick=True`` takes well under a minute).
@@ -553,6 +561,93 @@ def report(res: dict) -> None:
     )
 
 
+def _capture_chunk(cfg: object, rpm: float, channels: list[str], cutoff: object) -> tuple:
+    """Arguments of the longest ``run_chunk_gear`` call of a 0.05 s ``advance`` after 0.3 s."""
+    import copy
+
+    from gear_rotor_sim.solver import gear_kernel
+
+    sim = Simulator(cfg, rpm, 25.0, OUTPUT_RATE_HZ, channels=channels, modal_cutoff_hz=cutoff)
+    sim.advance(0.3)
+    caps: list[tuple] = []
+    orig = gear_kernel.run_chunk_gear
+
+    def spy(*a: object) -> object:
+        caps.append(copy.deepcopy(a))
+        return orig(*a)
+
+    gear_kernel.run_chunk_gear = spy
+    try:
+        sim.advance(0.05)
+    finally:
+        gear_kernel.run_chunk_gear = orig
+    return max(caps, key=lambda a: a[4][0].shape[0])
+
+
+def kernel_breakdown(repeats: int = 7) -> dict:
+    """Part (k): the gear kernel alone on captured chunks, located and not, per rig and basis."""
+    import copy
+
+    from gear_rotor_sim.solver import gear_kernel
+
+    rigs = {
+        "paper_3000rpm": (paper_gearbox(), 3000.0, ["dte"]),
+        "paper_20000rpm": (paper_gearbox(), 20000.0, ["dte"]),
+        "two_stage_3000rpm": (load_config("two_stage_example"), 3000.0, ["mesh1_dte", "mesh2_dte"]),
+    }
+    res: dict = {"load_start": os.getloadavg()}
+    for name, (cfg, rpm, ch) in rigs.items():
+        for basis, cut in (("default", "auto"), ("full", None)):
+            args = list(_capture_chunk(cfg, rpm, ch, cut))
+            n = args[4][0].shape[0] - 1
+            row: dict = {
+                "steps": n,
+                "modes": int(args[0][0].shape[0]),
+                "forced_modes": int(args[1]),
+                "columns": int(args[5][0].shape[0]),
+                "meshes": int(args[4][0].shape[1]),
+            }
+            for loc in (bool(args[8]), False) if args[8] else (False,):
+                args[8] = loc
+                cpus = []
+                for _ in range(repeats + 1):
+                    a = copy.deepcopy(args)
+                    c0 = time.process_time()
+                    out = gear_kernel.run_chunk_gear(*a)
+                    cpus.append(time.process_time() - c0)
+                us = 1e6 * float(np.median(cpus[1:])) / n
+                row["us_per_step_located" if loc else "us_per_step"] = us
+                if loc:
+                    row["substeps_per_step"] = out[3] / n
+            if "us_per_step_located" in row:
+                row["us_per_substep"] = (
+                    (row["us_per_step_located"] - row["us_per_step"]) / (row["substeps_per_step"] * n) * n
+                )
+            row["ns_per_mode_column"] = 1e3 * row["us_per_step"] / (row["forced_modes"] * row["columns"])
+            res[f"{name}_{basis}"] = row
+    res["load_end"] = os.getloadavg()
+    return res
+
+
+def report_kernel(res: dict) -> None:
+    la = f"load {res['load_start'][0]:.1f}->{res['load_end'][0]:.1f}"
+    print(f"\n(k) gear kernel alone on captured chunks, DTE channels, CPU median ({la})")
+    for key, r in res.items():
+        if not isinstance(r, dict):
+            continue
+        loc = (
+            f"located {r['us_per_step_located']:.3f} us/step ({r['substeps_per_step']:.3f} sub-steps "
+            f"per step, {r['us_per_substep']:.2f} us each)"
+            if "us_per_step_located" in r
+            else "not located by the rule"
+        )
+        print(
+            f"  {key:26s} {r['meshes']} mesh {r['forced_modes']:3d}/{r['modes']:3d} forced modes "
+            f"{r['columns']} cols: {r['us_per_step']:.3f} us/step not located "
+            f"({r['ns_per_mode_column']:.3f} ns per forced mode x column); {loc}"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description="solver benchmark (paper gearbox)")
     ap.add_argument("--quick", action="store_true")
@@ -560,6 +655,8 @@ def main() -> None:
     args = ap.parse_args()
     res = measure(args.quick, ramps=True)
     report(res)
+    res["kernel_breakdown"] = kernel_breakdown(5 if args.quick else 9)
+    report_kernel(res["kernel_breakdown"])
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(res, fh, indent=1, default=float)
