@@ -68,6 +68,7 @@ from gear_rotor_sim.calibration.fault_path import (
     scale_channels,
     with_path,
 )
+from gear_rotor_sim.calibration.features_bearing import impulse_note, modulation_sidebands_hz
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_window import model_window_samples
@@ -924,8 +925,9 @@ class Calibrator:
         ref = 0.1 * e.specs[0].upper
         model = self._cur_feat.combo(self._signature(e.with_parameters(force_n=ref)), e.force_n / ref)
         predicted = [self.cmp.envelope_model(model, c) for c in range(self.cmp.nc)]
+        shaft_hz = ratio * self.m.operating_point.speed_rpm / 60.0
         prominence = self._line_prominence(
-            e.key_frequencies_hz(ratio * self.m.operating_point.speed_rpm / 60.0), predicted
+            e.key_frequencies_hz(shaft_hz), predicted, modulation_sidebands_hz(e, shaft_hz)
         )
         if prominence < self.fit.line_prominence:
             self.notes.append(
@@ -935,7 +937,9 @@ class Calibrator:
             return False
         return True
 
-    def _line_prominence(self, freqs: Sequence[float], predicted: list[np.ndarray]) -> float:
+    def _line_prominence(
+        self, freqs: Sequence[float], predicted: list[np.ndarray], sidebands: Sequence[float] = ()
+    ) -> float:
         """Largest ratio of a measured envelope line to its local floor, over lines and channels.
 
         The floor is the median of the measured bins within +-25 % of the line frequency where the
@@ -945,7 +949,10 @@ class Calibrator:
         where it predicts the least, no longer at all the bins: with the sidebands
         in the floor the BPFI line of the independent 3000 rpm inner-race record read 1.5-2.9 x the
         floor against the held 2000 rpm baseline and 6.5 x without it (same measured spectrum, only
-        the predicted sidebands' level decided which bins were the floor).
+        the predicted sidebands' level decided which bins were the floor). The bins of the defect's own
+        modulation sidebands (``sidebands``: offsets from the kinematics,
+        ``features_bearing.modulation_sidebands_hz``) are left out first where at least 3 others
+        remain, whatever the candidate predicts there (docs/calibration.md Sec. 8.13).
         """
         f = self.cmp.env_f
         best = 0.0
@@ -954,6 +961,10 @@ class Calibrator:
             near = (np.abs(f - fk) <= 0.25 * fk) & (np.abs(f - fk) > 0.03 * fk) & ~own
             if not own.any():
                 continue
+            # the defect's own modulation sidebands (kinematic, features_bearing) are not its floor
+            side = self.cmp.line_mask([fk + d for d in sidebands])
+            if np.count_nonzero(near & ~side) >= 3:
+                near &= ~side
             for d, pm, fl in zip(self.cmp.d_env, predicted, self.cmp.env_floor, strict=True):
                 if not fl > 0:  # channel left out of the envelope features
                     continue
@@ -1217,11 +1228,25 @@ class Calibrator:
             return self.settings.tolerance
         return float(np.clip(mis, self.settings.tolerance, 0.5))
 
+    def _bearing_shaft_rad_s(self, e: BearingDefect) -> float:
+        """Speed (rad/s) of the shaft that carries bearing ``e.bearing``."""
+        from gear_rotor_sim.system import shaft_speed_ratios
+
+        cfg = self.runner.cfg
+        s = cfg.shaft_of_node(cfg.bearings[e.bearing - 1].node0)
+        ratio = abs(float(shaft_speed_ratios(cfg)[s]))
+        return ratio * self.m.operating_point.speed_rpm * math.pi / 30.0
+
     def _sensor_entry(self, score: Score) -> FoundEffect:
         params: dict[str, float] = {}
+        env = getattr(self.cmp, "envelope_gains", None)
         for c, g, b in zip(self.cmp.names, score.gains, score.slopes, strict=False):
             params[f"gain_{c}"] = float(g)
             params[f"transfer_slope_{c}"] = float(b)
+        # the envelope family's gains where a channel's mean identifies its sensor (features_bearing)
+        for c, g in zip(self.cmp.names, env if env is not None else [], strict=False):
+            if np.isfinite(g):
+                params[f"envelope_gain_{c}"] = float(g)
         return FoundEffect(
             "sensor_transfer",
             "sensor_transfer",
@@ -1606,6 +1631,8 @@ class Calibrator:
                 f"accepted {ver.effect.label} {ver.effect.parameters()}: error {cur_score.error:.3g} -> "
                 f"{ver.score.error:.3g}"
             )
+            if isinstance(ver.effect, BearingDefect):
+                self.notes.append(impulse_note(ver.effect, self._bearing_shaft_rad_s(ver.effect)))
             accepted.append(ver.effect)
             cur_raw = ver.raw
             cur_feat = self._accept_features(ver)

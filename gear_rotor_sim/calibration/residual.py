@@ -39,6 +39,7 @@ import numpy as np
 from scipy import signal as _sig
 
 from gear_rotor_sim.analysis.signals import amplitude_spectrum, analytic_band, resample_to_angle
+from gear_rotor_sim.calibration.features_bearing import static_sensor_gains
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
 from gear_rotor_sim.calibration.model_settle import run_settled, whole_period_samples
@@ -571,6 +572,9 @@ class ResidualSettings:
     #: averages separate periodic from random content only over enough revolutions (their
     #: significance test keeps an order at 3 standard errors of the between-revolution scatter)
     envelope_min_revolutions: float = 10.0
+    #: envelope family: the gain of a radial bearing-force channel from its mean (equilibrium load),
+    #: not from the mesh carriers (``features_bearing.static_sensor_gains``)
+    envelope_static_gain: bool = True
 
 
 class Comparison:
@@ -781,12 +785,40 @@ class Comparison:
                 self.d_env.append(p if self.env_use[c] else np.zeros_like(p))
                 self.env_f, self.env_k = f, k
             self.env_floor = [float(np.median(p)) for p in self.d_env]
+            self._set_envelope_gains(model)
             for c, fl in enumerate(self.env_floor):
                 if not fl > 0 and self.env_use[c]:
                     self.m.issues.append(
                         f"{self.names[c]}: no envelope content (zero spectrum): left out of the envelope "
                         "features"
                     )
+
+    def _set_envelope_gains(self, model: np.ndarray) -> None:
+        """Sensor gains of the radial bearing-force channels from their means (``features_bearing``),
+        used for the envelope family in place of the order gain, which the mesh carriers' model-form
+        misfit sets; NaN (order gain kept) elsewhere."""
+        self.envelope_gains = np.full(self.nc, np.nan)
+        if not (self.s.fit_gain and self.s.envelope_static_gain) or "static" not in self.families:
+            return
+        chans = getattr(self.m, "channels", None)
+        if not chans or len(chans) != self.nc:
+            return
+        self.envelope_gains = static_sensor_gains(
+            self.d_static,
+            np.where(self.static_mask, self.v_static, np.inf),
+            model.mean(axis=0),
+            [c.quantity for c in chans],
+            [c.direction for c in chans],
+            self.s.gain_bounds,
+        )
+
+    def envelope_gain(self, c: int, g: np.ndarray) -> float:
+        """Gain of channel ``c`` in the envelope family: its static sensor gain where the channel
+        identifies one, else the order gain ``g[c]`` (1 without the order family)."""
+        gs = getattr(self, "envelope_gains", None)
+        if gs is not None and np.isfinite(gs[c]):
+            return float(gs[c])
+        return float(g[c]) if "order" in self.families else 1.0
 
     def _choose_envelope_input(self, model: np.ndarray) -> None:
         """Envelope of the non-synchronous part at the bearings' channels, or of the whole signal at
@@ -1159,8 +1191,7 @@ class Comparison:
                 if not self.env_floor[c] > 0:
                     env_r2.append(np.zeros(self.d_env[c].size))
                     continue
-                gc = g[c] if "order" in self.families else 1.0
-                expect = self.envelope_expected(c, self.envelope_model(feats, c), gc)
+                expect = self.envelope_expected(c, self.envelope_model(feats, c), self.envelope_gain(c, g))
                 r = self.d_env[c] - expect
                 # variance of an averaged periodogram bin, taken at the smaller of the expected and the
                 # measured level (never below the noise floor) so that neither over- nor under-predicting

@@ -261,6 +261,23 @@ class BearingDefect(Effect):
         f = self.impact_multiple() * shaft_hz
         return [h * f for h in range(1, harmonics + 1)]
 
+    def impact_duration(self, shaft_rad_s: float) -> float:
+        """Duration (s) of one impact at shaft speed ``shaft_rad_s``: ``pulse_s``, else the transit time
+        of the rolling contact over the spall, ``spall_width_m / v``."""
+        if self.pulse_s is not None:
+            return float(self.pulse_s)
+        return self.spall_width_m / max(float(self.geometry.rolling_speed(abs(shaft_rad_s))), 1e-9)
+
+    def impulse(self, shaft_rad_s: float) -> float:
+        """Impulse (N s) of one full-load impact, ``2 force_n tau / pi`` (half-sine of duration tau).
+
+        Below about ``1 / (2 tau)`` (4-5 kHz at 0.1 ms) the spectrum of an impact is its impulse, so
+        an envelope analysed there identifies ``force_n tau`` and not the peak force alone: the
+        fitted ``force_n`` is the peak force of the identified impulse over the nominal spall
+        (``spall_width_m``), and a real spall of width ``w`` had a peak force
+        ``force_n * spall_width_m / w`` (docs/calibration.md Sec. 8.13)."""
+        return 2.0 / math.pi * self.force_n * self.impact_duration(shaft_rad_s)
+
     def _instants(self, upto: float) -> np.ndarray:
         """Impact instants in defect-phase units (cumulative, seeded), at least up to ``upto``."""
         key = ("instants", self.seed, self.slip)
