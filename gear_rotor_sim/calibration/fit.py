@@ -267,6 +267,32 @@ class CalibrationResult:
         }
 
 
+def _screen_gain(score: Score, sc: Score) -> tuple[float, float]:
+    """Delta BIC (one parameter) and explained share of a screened effect's score ``sc``."""
+    N = score.n_total
+    dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(N)
+    expl = (score.balanced_chi2 - sc.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+    return float(dbic), float(expl)
+
+
+def _screened(
+    eff: Effect, score: Score, sc: Score, sigmas: dict[str, float], dbic: float, expl: float
+) -> FoundEffect:
+    """A screened effect (static temperature, DTE-mean wear) as a found effect."""
+    return FoundEffect(
+        effect_name(eff),
+        eff.label,
+        reported_parameters(eff),
+        sigmas,
+        float(_logistic(dbic / 2)),
+        dbic,
+        expl,
+        score.error,
+        sc.error,
+        eff,
+    )
+
+
 class Calibrator:
     """Runs the procedure of the module docstring on one measurement.
 
@@ -480,9 +506,7 @@ class Calibrator:
                 f"{x:.3g} degC, largest residual {float(np.max(np.abs(sc.static_r))):.3g} sigma)"
             )
             return None
-        N = score.n_total
-        dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(N)
-        expl = (score.balanced_chi2 - sc.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+        dbic, expl = _screen_gain(score, sc)
         if dbic <= self.fit.bic_threshold or expl < self.fit.min_explained:
             return None
         eff = e.with_parameters(offset_c=x)
@@ -494,18 +518,7 @@ class Calibrator:
         self.log(
             f"static screening: temperature_offset {x:.4g} degC: error {score.error:.3g} -> {sc.error:.3g}"
         )
-        return FoundEffect(
-            effect_name(eff),
-            eff.label,
-            reported_parameters(eff),
-            {"offset_c": sig},
-            float(_logistic(dbic / 2)),
-            float(dbic),
-            float(expl),
-            score.error,
-            sc.error,
-            eff,
-        )
+        return _screened(eff, score, sc, {"offset_c": sig}, dbic, expl)
 
     def _wear_screen(self, score: Score) -> FoundEffect | None:
         """Tooth wear from the DTE mean against a held reference (``candidates_wear_reference.py``)."""
@@ -513,24 +526,11 @@ class Calibrator:
         if hit is None:
             return None
         eff, sc, sig = hit
-        N = score.n_total
-        dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(N)
-        expl = (score.balanced_chi2 - sc.balanced_chi2) / max(score.balanced_chi2 - N, 1e-12)
+        dbic, expl = _screen_gain(score, sc)
         self.log(
             f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
         )
-        return FoundEffect(
-            effect_name(eff),
-            eff.label,
-            reported_parameters(eff),
-            {"wear_depth_m": sig},
-            float(_logistic(dbic / 2)),
-            float(dbic),
-            float(expl),
-            score.error,
-            sc.error,
-            eff,
-        )
+        return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
 
     def _signature(self, effect: Effect) -> ModelFeatures:
         """Features of the response change of ``effect`` alone relative to the healthy model."""
