@@ -151,11 +151,13 @@ def node_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
             "node": 5,
             "unbalance_kg_m": 1.0e-5,
             "onset_s": round(t_now + 0.15, 3),
-            "growth": {"law": "linear", "final": 3.0e-4, "duration_s": 0.3},
+            "growth": {"law": "linear", "final": 3.0e-4, "duration_s": 0.45},
         }
         ok, msg = _call(probe, client, json.dumps({"faults": [growth]}))
         assert ok, msg
-        probe.wait_sim_time(growth["onset_s"] + 0.5, 60.0)
+        # 0.45 s of growth spans at least 4 blocks of 0.1 s: >= 3 block starts strictly inside it even
+        # when the onset falls on a block start (the truth is published per block, when it changed)
+        probe.wait_sim_time(growth["onset_s"] + 0.65, 60.0)
         out["growth"] = growth
         out["alive_after"] = sim.poll() is None
         out["monitor_alive"] = mon.poll() is None
