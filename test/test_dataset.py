@@ -86,7 +86,7 @@ def manifest(out: Path) -> dict:
     return json.loads((out / "manifest.json").read_text())
 
 
-def check_manifest(out: Path, n_total: int) -> dict:
+def check_manifest(out: Path, n_total: int, partial_allowed: bool = False) -> dict:
     m = manifest(out)
     assert m["runs_total"] == n_total and m["runs_finished"] == len(m["runs"])
     for e in m["runs"]:
@@ -96,7 +96,8 @@ def check_manifest(out: Path, n_total: int) -> dict:
         n = round(p["duration_s"] * p["sample_rate_hz"])
         assert e["sample_counts"] == {"/gear_rotor/dte": n, "/gear_rotor/bearing_forces": n}
         assert abs(e["duration_s"] - p["duration_s"]) <= roundoff(p["duration_s"], 2)
-    assert not list(out.glob("*.part"))
+    if not partial_allowed:
+        assert not list(out.glob("*.part"))
     return m
 
 
@@ -255,7 +256,9 @@ def test_killed_generation_resumes(tmp_path: Path) -> None:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    m = check_manifest(out, 3)
+    # killed while the next run may already be writing its <file>.part: the manifest holds only
+    # finished runs; the resume below removes the stale part (check_manifest then asserts none)
+    m = check_manifest(out, 3, partial_allowed=True)
     assert 1 <= len(m["runs"]) < 3
     kept = {e["file"]: (out / e["file"]).stat().st_mtime_ns for e in m["runs"]}
     report = generate(load_sweep(sweep_file), out, workers=1)
