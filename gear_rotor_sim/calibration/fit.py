@@ -879,8 +879,9 @@ class Calibrator:
                     "tooth"
                 )
                 ok = False
-            elif fams and self._path_mask(e) is not None and not fundamental_present(fams, sig):
-                # where the teeth separate rattle components lock onto several shaft orders at once
+            elif fams and getattr(self, "_at_rattle", False) and not fundamental_present(fams, sig):
+                # where the teeth separate rattle components lock onto several shaft orders at once,
+                # with or without a held reference baseline (candidates_wear_rattle.py)
                 self.notes.append(
                     f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
                     f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
@@ -1352,9 +1353,10 @@ class Calibrator:
     def run(self) -> CalibrationResult:
         self._feat_correction: ModelFeatures | None = None
         base_out = self._setup()
+        self._at_rattle = False
         if self.rattle_rules:
             # where the teeth separate: honest order uncertainties (features_rattle.py)
-            apply_rattle_uncertainty(
+            self._at_rattle = apply_rattle_uncertainty(
                 self.cmp,
                 self._features(self.base_raw),
                 lambda e: self._features(self._raw((e,))),
