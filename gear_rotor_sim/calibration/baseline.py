@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from gear_rotor_sim.calibration.measurement import Measurement
-from gear_rotor_sim.calibration.residual import ResidualSettings
+from gear_rotor_sim.calibration.residual import REFERENCE_STEPS_PER_MESH, ResidualSettings
 from gear_rotor_sim.faults import BASELINE_TYPES, Effect
 
 
@@ -166,7 +166,7 @@ def fit_reference_baseline(
     *,
     source: str | None = None,
     settings: ResidualSettings | None = None,
-    steps_per_mesh: int = 32,
+    steps_per_mesh: int = REFERENCE_STEPS_PER_MESH,
     log: Callable[[str], None] | None = None,
     **calibrator_kw: Any,
 ) -> ReferenceBaseline:

@@ -86,8 +86,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--steps-per-mesh",
         type=int,
-        default=32,
-        help="integration steps per mesh period of the model runs (default 32, as the simulator)",
+        default=None,
+        help="integration steps per mesh period of the model runs (default 32; 64 with --baseline, for "
+        "the reference and the diagnosis: from 48 on the mesh events are located; docs/calibration.md "
+        "Sec. 8.18)",
     )
 
 
@@ -119,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     from gear_rotor_sim.calibration.baseline import fit_reference_baseline, load_reference
     from gear_rotor_sim.calibration.fit import Calibrator, FitSettings
     from gear_rotor_sim.calibration.report import result_json, write_report
-    from gear_rotor_sim.calibration.residual import ResidualSettings
+    from gear_rotor_sim.calibration.residual import REFERENCE_STEPS_PER_MESH, ResidualSettings
 
     def log(msg: str) -> None:
         if not args.json:
@@ -185,7 +187,9 @@ def run(args: argparse.Namespace) -> int:
                     href,
                     source=str(args.baseline),
                     settings=settings,
-                    steps_per_mesh=args.steps_per_mesh,
+                    steps_per_mesh=REFERENCE_STEPS_PER_MESH
+                    if args.steps_per_mesh is None
+                    else args.steps_per_mesh,
                     log=log,
                 )
                 for note in rb.notes:

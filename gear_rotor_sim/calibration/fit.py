@@ -78,6 +78,7 @@ from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.residual import (
+    REFERENCE_STEPS_PER_MESH,
     Comparison,
     HousingSensor,
     ModelFeatures,
@@ -298,6 +299,14 @@ def _screened(
     )
 
 
+#: largest contact-loss fraction of the healthy model run for the exact order features and the
+#: accelerations from the velocities (docs/calibration.md Sec. 8.18): measured where the teeth stay in
+#: contact; where they separate (8000 rpm) both raised the healthy record's floor against the 2000 rpm
+#: reference (2.24 -> 3.26 -> 4.04) under the rattle rules of features_rattle.py, which were built on the
+#: resampled features and direct accelerations, and are kept there
+EXACT_ORDERS_MAX_CONTACT_LOSS = 0.01
+
+
 class Calibrator:
     """Runs the procedure of the module docstring on one measurement.
 
@@ -347,7 +356,7 @@ class Calibrator:
         sensors: dict[str, HousingSensor] | None = None,
         bearing_geometry: BearingGeometry = BEARING_6206,
         warmup_s: float = 0.15,
-        steps_per_mesh: int = 32,
+        steps_per_mesh: int | None = None,
         log: Callable[[str], None] | None = None,
         baseline: Sequence[Effect] | None = None,
         baseline_source: str | None = None,
@@ -366,6 +375,15 @@ class Calibrator:
         self.m = measurement
         self.rattle_rules = rattle_rules
         self.settings = settings or ResidualSettings()
+        if baseline is not None:
+            # against a held reference: located mesh events (REFERENCE_STEPS_PER_MESH) and the band
+            # of a channel without an envelope line from its bearing's most prominent channel (Sec. 8.18)
+            if steps_per_mesh is None:
+                steps_per_mesh = REFERENCE_STEPS_PER_MESH
+            if not self.settings.envelope_band_fallback:
+                self.settings = dataclasses.replace(self.settings, envelope_band_fallback=True)
+        if steps_per_mesh is None:
+            steps_per_mesh = 32
         self.fit = fit_settings or FitSettings()
         self.log = log or (lambda s: None)
         self.runner = ModelRunner(
@@ -1265,6 +1283,12 @@ class Calibrator:
         self._sig_checked: dict[tuple, bool] = {}
         self.base_raw = self._raw(())
         self.base_contact_loss = float(self.runner.last_contact_loss)
+        if not self.base_contact_loss <= EXACT_ORDERS_MAX_CONTACT_LOSS:
+            # where the teeth separate the order features stay those of the linear resampling and
+            # the accelerations the simulator's own (docs/calibration.md Sec. 8.18)
+            self.cmp.set_exact_orders(False)
+            self.runner.accel_from_velocity = False
+            self.base_raw = self._raw(())
         base_out = self.runner.outputs(self.base_raw)
         self.cmp.set_baseline(base_out)
         if self.runner.sensors is not None and any(housing_source(c) for c in self.runner.channels):
@@ -1846,6 +1870,9 @@ def reported_parameters(effect: Effect) -> dict[str, Any]:
         out["member"] = effect.member
     if isinstance(effect, ToothDamage | GearMisalignment | GearEccentricity | ToothWear):
         out["mesh"] = int(effect.mesh)
+    if isinstance(effect, ToothWear) and effect.profile_scale != 1.0:
+        # the nuisance of the DTE-mean screen against a reference (candidates_wear_reference.py)
+        out["profile_scale"] = float(effect.profile_scale)
     return out
 
 
@@ -1914,6 +1941,7 @@ def synthetic_measurement(
 
     from gear_rotor_sim.blocks import SampleBlock
     from gear_rotor_sim.calibration.measurement import OperatingPoint, write_csv
+    from gear_rotor_sim.calibration.model_accel import MARGIN, differentiate, velocity_of
     from gear_rotor_sim.simulator import Simulator
 
     data_cfg = cfg.replace(
@@ -1926,13 +1954,26 @@ def synthetic_measurement(
         speed, temp = e.operating_point(speed, temp)
     if output_torque_nm is not None and data_cfg.load is not None:
         data_cfg = data_cfg.replace(load=dataclasses.replace(data_cfg.load, torque_nm=output_torque_nm))
+    # node accelerations as the derivative of the simulated velocities, as the calibration's model
+    # runs (model_accel.py): the two then share the numerics, and the data has no step-grid lines
+    vel = [velocity_of(c) for c in channels]
     sim = Simulator(
-        data_cfg, speed, temp, sample_rate_hz, list(channels), steps_per_mesh, effects=tuple(effects)
+        data_cfg,
+        speed,
+        temp,
+        sample_rate_hz,
+        [v or c for v, c in zip(vel, channels, strict=True)],
+        steps_per_mesh,
+        effects=tuple(effects),
     )
     i0 = round(warmup_s * sample_rate_hz)
     n = round(duration_s * sample_rate_hz)
-    block = sim.advance((i0 + n + 0.5) / sample_rate_hz)
-    data = block.data[i0 : i0 + n].copy()
+    block = sim.advance((i0 + n + MARGIN + 0.5) / sample_rate_hz)
+    raw = np.array(block.data[i0 - MARGIN : i0 + n + MARGIN], dtype=float)
+    for k, v in enumerate(vel):
+        if v:
+            raw[:, k] = differentiate(raw[:, k], sample_rate_hz)
+    data = raw[MARGIN : MARGIN + n].copy()
     add_direct_bearing_forces(data, list(channels), effects, data_cfg, temp, speed, sample_rate_hz, i0)
     rng = np.random.default_rng(seed)
     gains = 1.0 + gain_error * rng.choice([-1.0, 1.0], size=data.shape[1])

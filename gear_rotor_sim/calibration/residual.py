@@ -34,6 +34,7 @@ import math
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import signal as _sig
@@ -42,8 +43,10 @@ from gear_rotor_sim.analysis.signals import amplitude_spectrum, analytic_band, r
 from gear_rotor_sim.calibration.features_bearing import static_sensor_gains
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
+from gear_rotor_sim.calibration.model_accel import MARGIN, differentiate, velocity_of
 from gear_rotor_sim.calibration.model_settle import run_settled, whole_period_samples
 from gear_rotor_sim.calibration.model_window import hunting_period_s
+from gear_rotor_sim.calibration.order_dft import revolution_coefficients
 
 FAMILIES = ("order", "envelope", "static")
 
@@ -119,6 +122,21 @@ def cached_system(cfg: object, temperature_c: float) -> object:
     return hit
 
 
+#: integration steps per mesh period of the calibration's model runs against a held reference
+#: baseline (``--baseline``; where the teeth separate the simulator's dt rule takes more anyway). From
+#: 48 on the dt rule locates the mesh-table jumps inside the steps (``solver/dt_rule.py``); at 32 they
+#: are taken at the step instants and the timing error repeats with the step grid's beat against the
+#: tooth count, which puts numerical lines at every shaft order between the mesh harmonics
+#: (docs/calibration.md Sec. 8.18: ``bearing2_fx`` 1.35 N RMS over the non-carrier pinion orders at
+#: 3000 rpm, 0.015 N at 64 located). Without a reference the default stays 32 (not re-validated).
+REFERENCE_STEPS_PER_MESH = 64
+
+#: envelope-band choice: a residual envelope line this many times its floor (6 dB, the detection
+#: threshold of a bearing line, ``FitSettings.line_prominence``) makes a channel's own band; below
+#: it a channel takes the band of the most prominent channel at the same bearing
+ENVELOPE_BAND_PROMINENCE = 4.0
+
+
 @dataclass
 class ModelRunner:
     """Runs the simulator at the declared operating point and returns the measured channels.
@@ -161,6 +179,8 @@ class ModelRunner:
     #: contact-loss fraction (time share of separated teeth) of the last run returned
     last_contact_loss: float = float("nan")
     n_moved: int = 0  # runs whose window was moved on past a step-rule switch (model_settle.py)
+    #: node accelerations as the derivative of the simulated velocities (``model_accel.py``)
+    accel_from_velocity: bool = True
 
     def __post_init__(self) -> None:
         cfg = self.cfg
@@ -198,6 +218,7 @@ class ModelRunner:
                 f"{self.start_time:.9f}",
                 ",".join(self.sim_channels()),
                 str(self.steps_per_mesh),
+                str(self.accel_from_velocity),
                 repr(tuple(effects)),
             ]
         )
@@ -213,12 +234,17 @@ class ModelRunner:
             fn = getattr(e, "operating_point", None)
             if fn is not None:
                 speed, temp = fn(speed, temp)
+        names = self.sim_channels()
+        # accelerations as the derivative of the simulated velocities (model_accel.py): the window is
+        # simulated MARGIN samples longer at each end for the differentiator
+        vel = [velocity_of(c) if self.accel_from_velocity else None for c in names]
+        pad = MARGIN if any(vel) else 0
         sim = Simulator(
             self.cfg,
             speed_rpm=speed,
             temperature_c=temp,
             output_rate_hz=self.sample_rate_hz,
-            channels=self.sim_channels(),
+            channels=[v or c for v, c in zip(vel, names, strict=True)],
             steps_per_mesh=self.steps_per_mesh,
             effects=tuple(effects),
             system_builder=cached_system,
@@ -228,12 +254,16 @@ class ModelRunner:
         # the window holds no switch of the simulator's step rule (a start-up separation would put the
         # rule's contact-loss setting into it: model_settle.py); else it moves on by hunting periods
         period = whole_period_samples(hunting_period_s(self.cfg, speed), self.sample_rate_hz)
-        run = run_settled(sim, i0, n, self.sample_rate_hz, period)
+        run = run_settled(sim, i0 - pad, n + 2 * pad, self.sample_rate_hz, period)
         data = run.data
-        if data.shape[0] != n:
-            raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n}")
+        if data.shape[0] != n + 2 * pad:
+            raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n + 2 * pad}")
+        for k, v in enumerate(vel):
+            if v:
+                data[:, k] = differentiate(data[:, k], self.sample_rate_hz)
+        data = np.ascontiguousarray(data[pad : pad + n])
         add_direct_bearing_forces(
-            data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, run.first_index
+            data, names, effects, self.cfg, temp, speed, self.sample_rate_hz, run.first_index + pad
         )
         self.n_runs += 1
         self.n_moved += run.shifts > 0
@@ -383,7 +413,7 @@ def _shaft_nodes(cfg: object, s: int) -> range:
 
 
 def order_coefficients(
-    x: np.ndarray, fs: float, shaft_hz: float, orders: np.ndarray, angle0_rev: float
+    x: np.ndarray, fs: float, shaft_hz: float, orders: np.ndarray, angle0_rev: float, exact: bool = True
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Synchronous-average Fourier coefficients and their noise variance.
 
@@ -399,6 +429,11 @@ def order_coefficients(
         Integer orders.
     angle0_rev : float
         Absolute shaft angle of the first sample, revolutions (the phase reference).
+    exact : bool
+        Each revolution's Fourier integral from the samples (``order_dft.py``, no images); False:
+        the record resampled to ``2^k`` points per revolution by linear interpolation (computed
+        order tracking as before session 9, kept where the teeth separate: docs/calibration.md
+        Sec. 8.18).
 
     Returns
     -------
@@ -409,12 +444,19 @@ def order_coefficients(
         Noise variance of each coefficient (between-revolution scatter / number of revolutions).
     n_rev : int
     """
-    spr = int(2 ** math.ceil(math.log2(max(fs / shaft_hz, 2 * (orders.max() + 2)))))
-    _, xa = resample_to_angle(x - np.mean(x), fs, shaft_hz * 60.0, spr)
-    n_rev = (xa.size - 1) // spr
+    # at the constant declared speed: each revolution's Fourier integral directly, no resampling (a
+    # linear interpolation onto an angle grid folds images of the mesh harmonics onto shaft orders:
+    # order_dft.py)
+    if exact:
+        per = revolution_coefficients(np.asarray(x, dtype=float) - np.mean(x), fs, shaft_hz, orders)
+    else:
+        spr = int(2 ** math.ceil(math.log2(max(fs / shaft_hz, 2 * (orders.max() + 2)))))
+        _, xa = resample_to_angle(x - np.mean(x), fs, shaft_hz * 60.0, spr)
+        n_res = (xa.size - 1) // spr
+        per = np.fft.rfft(xa[: n_res * spr].reshape(n_res, spr), axis=1)[:, orders] / spr
+    n_rev = per.shape[0]
     if n_rev < 2:
         raise ValueError(f"record shorter than 2 revolutions of a {shaft_hz:.3g} Hz shaft")
-    per = np.fft.rfft(xa[: n_rev * spr].reshape(n_rev, spr), axis=1)[:, orders] / spr
     coef = per.mean(axis=0)
     var = np.sum(np.abs(per - coef) ** 2, axis=0) / max(n_rev - 1, 1) / n_rev
     rot = np.exp(-2j * np.pi * orders * (angle0_rev % 1.0))
@@ -450,14 +492,21 @@ def envelope_power_spectrum(
 
 
 def prominent_envelope_band(
-    x: np.ndarray, fs: float, f_lo: float, f_hi: float, segment_s: float, min_hz: float = 500.0
-) -> tuple[float, float]:
+    x: np.ndarray,
+    fs: float,
+    f_lo: float,
+    f_hi: float,
+    segment_s: float,
+    min_hz: float = 500.0,
+    with_score: bool = False,
+) -> Any:
     """One-octave band whose squared-envelope spectrum has the most prominent line.
 
     Candidate bands ``[lo, 2 lo]`` with ``lo`` from ``min_hz`` in steps of sqrt(2) up to ``0.45 fs``;
     the score is the largest envelope-spectrum bin in ``[f_lo, f_hi]`` over the median bin (the
     criterion of the protrugram, Barszcz & Jablonski 2011: periodic impacts give lines, random
-    impulsiveness does not). Applied to the residual measurement - healthy model.
+    impulsiveness does not). Applied to the residual measurement - healthy model. Returns the band,
+    or ``(band, score)`` with ``with_score``.
     """
     best = (-np.inf, (0.25 * fs, 0.45 * fs))
     lo = min_hz
@@ -469,7 +518,7 @@ def prominent_envelope_band(
         if score > best[0]:
             best = (score, band)
         lo *= math.sqrt(2.0)
-    return best[1]
+    return (best[1], best[0]) if with_score else best[1]
 
 
 @dataclass
@@ -572,6 +621,9 @@ class ResidualSettings:
     #: averages separate periodic from random content only over enough revolutions (their
     #: significance test keeps an order at 3 standard errors of the between-revolution scatter)
     envelope_min_revolutions: float = 10.0
+    #: envelope band of a channel without a line 6 dB above its floor: that of the most prominent
+    #: channel at the same bearing (``Comparison.set_baseline``; on against a held reference)
+    envelope_band_fallback: bool = False
     #: envelope family: the gain of a radial bearing-force channel from its mean (equilibrium load),
     #: not from the mesh carriers (``features_bearing.static_sensor_gains``)
     envelope_static_gain: bool = True
@@ -629,18 +681,9 @@ class Comparison:
         # data order features
         self.d_order: list[list[np.ndarray]] = []
         self.v_order: list[list[np.ndarray]] = []
-        if "order" in self.families:
-            for c in range(self.nc):
-                cs, vs = [], []
-                for sh in self.shafts:
-                    f = sh.ratio * self.speed_hz
-                    co, var, _ = order_coefficients(self.y[:, c], self.fs, f, sh.orders, f * measurement.t0)
-                    med = np.median(var)
-                    cs.append(co)
-                    vs.append(np.maximum(var, med))
-                self.d_order.append(cs)
-                self.v_order.append(vs)
-            self._guard_zero_variance(measurement)
+        #: order coefficients by the exact per-revolution integral (order_dft.py); set_exact_orders
+        self.exact_orders = True
+        self._data_orders()
         # transfer-slope abscissa: log10 of the frequency over the mesh frequency, held at the edges of
         # the mesh-carrier band (harmonics 1..M) where the slope is fitted: a slope seen over half a
         # decade of carriers is not extrapolated a decade down to the shaft orders
@@ -663,6 +706,32 @@ class Comparison:
         self.d_env: list[np.ndarray] = []
         self.env_f: np.ndarray = np.zeros(0)
         self.env_k = 1.0
+
+    def _data_orders(self) -> None:
+        """The measured order features and their noise variances."""
+        self.d_order, self.v_order = [], []
+        if "order" not in self.families:
+            return
+        for c in range(self.nc):
+            cs, vs = [], []
+            for sh in self.shafts:
+                f = sh.ratio * self.speed_hz
+                co, var, _ = order_coefficients(
+                    self.y[:, c], self.fs, f, sh.orders, f * self.m.t0, self.exact_orders
+                )
+                med = np.median(var)
+                cs.append(co)
+                vs.append(np.maximum(var, med))
+            self.d_order.append(cs)
+            self.v_order.append(vs)
+        self._guard_zero_variance(self.m)
+
+    def set_exact_orders(self, exact: bool) -> None:
+        """Order features by the exact per-revolution integral (True) or by linear resampling to an
+        angle grid (False); the measured features are recomputed (before any model is scored)."""
+        if bool(exact) != self.exact_orders:
+            self.exact_orders = bool(exact)
+            self._data_orders()
 
     def _units(self, measurement: Measurement) -> list[str]:
         chans = getattr(measurement, "channels", None)
@@ -688,10 +757,12 @@ class Comparison:
             else:
                 self.v_order[c] = [np.full(v.shape, np.inf) for v in self.v_order[c]]
                 how = "left out of the order features (no channel of the same unit to take a floor from)"
-            measurement.issues.append(
+            issue = (
                 f"{self.names[c]}: no dynamic content (zero variance between revolutions); its "
                 f"uncertainty is {how}"
             )
+            if issue not in measurement.issues:  # the features may be recomputed (set_exact_orders)
+                measurement.issues.append(issue)
 
     def _static_features(self, measurement: Measurement) -> None:
         """Channel means (order 0) and their noise variance (scatter of per-revolution means)."""
@@ -754,6 +825,7 @@ class Comparison:
             y = self.y[: model.shape[0]]  # the model may cover whole hunting periods only
             resid = y - model * self._quick_gains(model)
             self.bands = []
+            scores: dict[int, float] = {}
             self._y_env = [
                 self._envelope_input(self.y[:, c]) if self.env_use[c] else self.y[:, c]
                 for c in range(self.nc)
@@ -764,15 +836,29 @@ class Comparison:
                 elif self.s.envelope_band_hz is not None:
                     band = self.s.envelope_band_hz
                 else:
-                    band = prominent_envelope_band(
+                    band, score = prominent_envelope_band(
                         self._envelope_input(resid[:, c]),
                         self.fs,
                         self.s.envelope_min_hz,
                         self.env_hi,
                         self.s.envelope_segment_s,
                         min_hz=max(500.0, 2.0 * self.env_hi),
+                        with_score=True,
                     )
+                    scores[c] = score
                 self.bands.append(band)
+            # a channel whose residual envelope has no line 6 dB above its floor in any band (the
+            # detection threshold of a bearing line) takes the band of the channel where the line is
+            # most prominent: its own choice would be made on noise (Sec. 8.18: bearing2_fx of the
+            # 3000 rpm outer-race record, prominence 1.4-1.9 in every band against 115-147 on
+            # bearing2_fy, drew 1.2-2.4 kHz at 64 steps per mesh period and 2.4-4.8 kHz at 32, and the
+            # fitted force moved from 278 N to 194 N for 300)
+            for c, sc in scores.items() if self.s.envelope_band_fallback else ():
+                site = self.names[c].split("_")[0]  # bearing<k>: the channels at the same bearing
+                peers = {k: v for k, v in scores.items() if self.names[k].split("_")[0] == site}
+                best = max(peers, key=lambda k: peers[k])
+                if sc < ENVELOPE_BAND_PROMINENCE <= peers[best]:
+                    self.bands[c] = self.bands[best]
             self.d_env = []
             for c in range(self.nc):
                 f, p, k = envelope_power_spectrum(
@@ -887,7 +973,9 @@ class Comparison:
             cs = []
             for sh in self.shafts:
                 f = sh.ratio * self.speed_hz
-                co, _, _ = order_coefficients(model[:, c], self.fs, f, sh.orders, f * t_start)
+                co, _, _ = order_coefficients(
+                    model[:, c], self.fs, f, sh.orders, f * t_start, self.exact_orders
+                )
                 cs.append(co)
             out.append(cs)
         return out

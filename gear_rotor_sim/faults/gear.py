@@ -211,6 +211,43 @@ def wear_profile(
     return np.where(np.isfinite(r), r, 0.0)
 
 
+def step_average_periodic(table: np.ndarray, phase: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """Mean of a periodic table over ``[phase - width/2, phase + width/2]`` (phase in cycles).
+
+    The table holds the values at ``arange(n) / n`` of a period, linear in between (as
+    ``np.interp(..., period=1)``); its mean over an interval is the difference of its exact
+    antiderivative. A table that jumps within one of its cells (the sliding-wear transmission error
+    where a pair enters or leaves contact) is then seen by the integrator as the mean over each step:
+    the jump's place inside the step sets the value, where a sample at the step instant would move
+    the jump to the step grid. That timing error repeats with the grid's beat against the tooth
+    count and puts numerical lines at the shaft orders between the mesh harmonics (docs/calibration.md
+    Sec. 8.18: 0.83 m/s^2 RMS over the pinion orders of ``node5_ay`` for 17.7 um of wear at 3000 rpm
+    and 69 steps per mesh period, falling as the step). ``width`` 0 gives the point value.
+    """
+    p = np.asarray(table, dtype=float)
+    n = p.size
+    x = np.asarray(phase, dtype=float)
+    w = np.broadcast_to(np.asarray(width, dtype=float), x.shape)
+    nxt = np.roll(p, -1)
+    node = np.concatenate([[0.0], np.cumsum(0.5 * (p + nxt) / n)])  # antiderivative at the nodes
+    period = node[-1]
+
+    def antider(u: np.ndarray) -> np.ndarray:
+        k = np.floor(u)
+        f = (u - k) * n
+        j = np.minimum(f.astype(int), n - 1)
+        d = (f - j) / n
+        return k * period + node[j] + d * p[j] + 0.5 * d * d * n * (nxt[j] - p[j])
+
+    point = np.interp(x, np.arange(n) / n, p, period=1.0)
+    wide = w > 1e-12
+    out = point.copy()
+    if np.any(wide):
+        xs, ws = x[wide], w[wide]
+        out[wide] = (antider(xs + 0.5 * ws) - antider(xs - 0.5 * ws)) / ws
+    return out
+
+
 def mesh_wear_profile(table: Any) -> np.ndarray:
     """Transmission error of the sliding-wear profile over a mesh cycle, per unit wear depth.
 
@@ -251,15 +288,27 @@ class ToothWear(Effect):
         Wear depth h, m: the uniform removal and the largest sliding-wear removal (path ends).
     mesh : int
         1-based mesh (order of ``meshes:`` in the rig).
+    profile_scale : float
+        Amplitude of the sliding-wear profile's variation over the mesh cycle relative to Archard's,
+        in [0, 1] (1: the profile above; 0: its mean removal at every phase, no mesh-harmonic
+        content). The mean removal, hence the DTE mean in contact, does not depend on it: the depth
+        sets the mean, and how the removal varies along the path is the assumption two models of a
+        gear disagree on, which the diagnosis against a reference fits as a nuisance
+        (``candidates_wear_reference.py``).
     """
 
     wear_depth_m: float = 0.0
     mesh: int = 1
+    profile_scale: float = 1.0
     name: ClassVar[str] = "tooth_wear"
     signature: ClassVar[str] = "mesh harmonics of the transmission error; larger backlash and DTE mean"
     specs: ClassVar[tuple[ParameterSpec, ...]] = (
         ParameterSpec("wear_depth_m", "m", 0.0, 100e-6, "amplitude", "wear depth"),
     )
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.profile_scale) and 0.0 <= self.profile_scale <= 1.0):
+            raise ValueError(f"profile_scale: {self.profile_scale!r} must be a number in [0, 1]")
 
     @property
     def label(self) -> str:
@@ -276,8 +325,17 @@ class ToothWear(Effect):
                 f"mesh: {self.mesh} has no sliding-wear table (its gear geometry is not known); tooth_wear "
                 "needs a mesh built by elements.mesh.build_mesh_coupling"
             )
-        grid = np.arange(table.size) / table.size
-        profile = np.interp(np.asarray(phase, dtype=float), grid, table, period=1.0)
+        # the profile jumps where a pair enters or leaves (its load share does): averaged over each
+        # integration step, so that the jump's place inside the step is kept (step_average_periodic)
+        m = ctx.system.meshes[self.mesh - 1]
+        t = np.asarray(ctx.t, dtype=float)
+        speed = np.abs(np.asarray(ctx.shaft_speed, dtype=float)[:, m.pinion_shaft])
+        dt = np.gradient(t) if t.size > 1 else np.zeros(t.size)
+        width = m.pinion_teeth * speed * dt / (2.0 * np.pi)
+        profile = step_average_periodic(table, np.asarray(phase, dtype=float), width)
+        if self.profile_scale != 1.0:
+            mean = float(np.mean(table))  # the cycle mean of the periodic piecewise-linear table
+            profile = mean + self.profile_scale * (profile - mean)
         return on_mesh(ctx, self.mesh, self.wear_depth_m * profile, 0.0)
 
     def modify_config(self, cfg: RigConfig) -> RigConfig:
