@@ -267,8 +267,11 @@ def apply_rattle_uncertainty(
     score = cmp.score(nominal)
     from gear_rotor_sim.calibration.comb_families import comb_chi2_by_order
 
+    #: shaft name -> the sideband families left out (the scale-free ratios leave them out too)
+    cmp.locked_families = {}
     for s, sh in enumerate(cmp.shafts):
         fams = locked_families(comb_chi2_by_order(cmp, nominal, score, s), sh.orders, sh.teeth)
+        cmp.locked_families[sh.name] = list(fams)
         for j in fams:
             member = sideband_family(sh.orders, sh.teeth) == j
             cmp.leave_out_orders(s, member)
