@@ -57,6 +57,7 @@ from gear_rotor_sim.calibration.candidates_tooth import (
     refine_depth_by_ratios,
 )
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import (
     FUNDAMENTAL_FAMILY,
@@ -526,8 +527,13 @@ class Calibrator:
         return _screened(eff, score, sc, {"offset_c": sig}, dbic, expl)
 
     def _wear_screen(self, score: Score) -> FoundEffect | None:
-        """Tooth wear from the DTE mean against a held reference (``candidates_wear_reference.py``)."""
+        """Tooth wear against a held reference: from the DTE mean in contact
+        (``candidates_wear_reference.py``), from the DTE amplitude at the mesh frequency where the teeth
+        separate (``candidates_wear_rattle.py``)."""
         hit = screen_wear_on_dte_mean(self, score)
+        if hit is None:
+            # where the teeth separate: from the rattle amplitude (candidates_wear_rattle.py)
+            hit = screen_wear_on_rattle_amplitude(self, score)
         if hit is None:
             return None
         eff, sc, sig = hit
@@ -957,7 +963,7 @@ class Calibrator:
                 ok = False
             elif fams and getattr(self, "_at_rattle", False) and not fundamental_present(fams, sig):
                 # where the teeth separate rattle components lock onto several shaft orders at once,
-                # with or without a held reference baseline (candidates_wear_rattle.py)
+                # with or without a held reference baseline (docs/calibration.md Sec. 8.16)
                 self.notes.append(
                     f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
                     f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
@@ -1472,6 +1478,9 @@ class Calibrator:
                 self.base_contact_loss,
                 self.m.issues,
             )
+        if self._at_rattle:
+            # a worn machine stays on the healthy machine's rattle branch (candidates_wear_rattle.py)
+            self.runner.grown_effects = (ToothWear,)
         self._refit_transfer(self._features(self.base_raw))
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total
