@@ -53,7 +53,8 @@ because the machine is shared.
     per step with the events located as the rule has it and with location off on the same chunk,
     sub-steps per step, the located part per sub-step, forced modes and active columns, and the
     regular step's cost per forced mode and per (forced mode x column). The per-step profile of the
-    default against the full model and of the two-stage rig against the paper gearbox.
+    default against the full model and of the two-stage rig against the paper gearbox. Last,
+    ``Simulator.advance`` at 20000 rpm (DTE only) split into the kernel's CPU and the rest.
 
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
@@ -625,15 +626,54 @@ def kernel_breakdown(repeats: int = 7) -> dict:
                 )
             row["ns_per_mode_column"] = 1e3 * row["us_per_step"] / (row["forced_modes"] * row["columns"])
             res[f"{name}_{basis}"] = row
+    res["simulator_split_20000rpm"] = simulator_split(paper_gearbox(), 20000.0, repeats)
     res["load_end"] = os.getloadavg()
     return res
+
+
+def simulator_split(cfg: object, rpm: float, repeats: int, chunk_s: float = 0.1) -> dict:
+    """CPU of ``Simulator.advance(chunk_s)`` (DTE only) split into the gear kernel and the rest (the
+    Python side: time and phase arrays, the decimator's store and FIR, the dt rule), medians."""
+    from gear_rotor_sim.solver import gear_kernel
+
+    sim = Simulator(cfg, rpm, 25.0, OUTPUT_RATE_HZ, channels=["dte"])
+    sim.advance(0.3)
+    acc = [0.0]
+    orig = gear_kernel.run_chunk_gear
+
+    def timed_kernel(*a: object) -> object:
+        c0 = time.process_time()
+        out = orig(*a)
+        acc[0] += time.process_time() - c0
+        return out
+
+    total, kern = [], []
+    gear_kernel.run_chunk_gear = timed_kernel
+    try:
+        for _ in range(2 * repeats + 1):
+            acc[0] = 0.0
+            c0 = time.process_time()
+            sim.advance(chunk_s)
+            total.append(time.process_time() - c0)
+            kern.append(acc[0])
+    finally:
+        gear_kernel.run_chunk_gear = orig
+    t, k = np.array(total), np.array(kern)
+    return {
+        "rpm": rpm,
+        "ms_per_simulated_s": 1e3 * float(np.median(t)) / chunk_s,
+        "kernel_ms_per_simulated_s": 1e3 * float(np.median(k)) / chunk_s,
+        "rest_ms_per_simulated_s": 1e3 * float(np.median(t - k)) / chunk_s,
+        "rtf_cpu": chunk_s / float(np.median(t)),
+        "steps_per_simulated_s": sim.last_chunk_stats["steps"] / chunk_s,
+    }
 
 
 def report_kernel(res: dict) -> None:
     la = f"load {res['load_start'][0]:.1f}->{res['load_end'][0]:.1f}"
     print(f"\n(k) gear kernel alone on captured chunks, DTE channels, CPU median ({la})")
     for key, r in res.items():
-        if not isinstance(r, dict):
+        if not isinstance(r, dict) or "meshes" not in r:
             continue
         loc = (
             f"located {r['us_per_step_located']:.3f} us/step ({r['substeps_per_step']:.3f} sub-steps "
@@ -645,6 +685,14 @@ def report_kernel(res: dict) -> None:
             f"  {key:26s} {r['meshes']} mesh {r['forced_modes']:3d}/{r['modes']:3d} forced modes "
             f"{r['columns']} cols: {r['us_per_step']:.3f} us/step not located "
             f"({r['ns_per_mode_column']:.3f} ns per forced mode x column); {loc}"
+        )
+    sp = res.get("simulator_split_20000rpm")
+    if sp:
+        print(
+            f"  Simulator.advance at {sp['rpm']:.0f} rpm, DTE only: {sp['ms_per_simulated_s']:.1f} ms CPU "
+            f"per simulated s (RTF {sp['rtf_cpu']:.2f}): kernel {sp['kernel_ms_per_simulated_s']:.1f}, "
+            f"the rest {sp['rest_ms_per_simulated_s']:.1f} ({sp['steps_per_simulated_s']:.0f} steps per "
+            "simulated s)"
         )
 
 

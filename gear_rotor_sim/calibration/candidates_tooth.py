@@ -74,6 +74,14 @@ class RatioDepth:
     mesh_set: MeshStiffnessDamping | None = None  # mesh stiffness scale fitted with the depth held
 
 
+def wheel_shaft_name(cal: Calibrator, e: ToothDamage) -> str:
+    """Name of the damaged wheel's shaft."""
+    cfg = cal.runner.cfg
+    mesh = cfg.meshes[e.mesh - 1]
+    node0 = cfg.gear(mesh.pinion if e.wheel == "pinion" else mesh.gear).node0
+    return str(cfg.shafts[cfg.shaft_of_node(node0)].name)
+
+
 def wheel_shaft(cal: Calibrator, e: ToothDamage) -> tuple[float, int] | None:
     """Rotation frequency (Hz) of the damaged wheel's shaft and the wheel's teeth, or None if the
     shaft is not among the order-analysed shafts."""
@@ -89,10 +97,22 @@ def wheel_shaft(cal: Calibrator, e: ToothDamage) -> tuple[float, int] | None:
 
 
 def ratio_depth_applies(cal: Calibrator) -> bool:
-    """Continuous contact, order features available, baseline fitted on this record."""
-    return (
-        "order" in cal.cmp.families and cal.fit_baseline and bool(cal.base_contact_loss <= MIN_CONTACT_LOSS)
-    )
+    """Order features available, baseline fitted on this record, and either continuous contact or the
+    rattle rules in force where the teeth separate (Sec. 8.14: the ratios there are read against full
+    simulations of the rattling model, and the whole-record comparison of step 6 scores both depths
+    with the bearing path and the envelope scatter fitted)."""
+    if "order" not in cal.cmp.families or not cal.fit_baseline:
+        return False
+    return bool(cal.base_contact_loss <= MIN_CONTACT_LOSS or cal.rattle_rules)
+
+
+def ratio_depth_in_contact(cal: Calibrator) -> bool:
+    """The healthy model's teeth stay in contact (contact-loss fraction at most ``MIN_CONTACT_LOSS``)."""
+    return bool(cal.base_contact_loss <= MIN_CONTACT_LOSS)
+
+
+def _rattling(cal: Calibrator) -> bool:
+    return not ratio_depth_in_contact(cal)
 
 
 def refine_depth_by_ratios(cal: Calibrator, e: ToothDamage, accepted: list[Effect]) -> RatioDepth | None:
@@ -119,12 +139,16 @@ def refine_depth_by_ratios(cal: Calibrator, e: ToothDamage, accepted: list[Effec
     f_shaft, teeth = shaft
     fs = cal.m.sample_rate_hz
     harmonics, sidebands = cal.settings.mesh_harmonics, cal.settings.sidebands
+    # a sideband family left out as a locked rattle component (features_rattle.py) is left out here too
+    skip = tuple(getattr(cal.cmp, "locked_families", {}).get(wheel_shaft_name(cal, e), ()))
 
     def model_ser(effects: tuple[Effect, ...]) -> np.ndarray:
         out = cal.runner.outputs(cal._raw(effects))
-        return sideband_energy_ratios(out, fs, f_shaft, teeth, harmonics, sidebands, debias=False)[0]
+        return sideband_energy_ratios(out, fs, f_shaft, teeth, harmonics, sidebands, debias=False, skip=skip)[
+            0
+        ]
 
-    meas, meas_se = sideband_energy_ratios(cal.m.data, fs, f_shaft, teeth, harmonics, sidebands)
+    meas, meas_se = sideband_energy_ratios(cal.m.data, fs, f_shaft, teeth, harmonics, sidebands, skip=skip)
 
     def at(d: float) -> tuple[Effect, ...]:
         return (*accepted, dataclasses.replace(e, depth=d)) if d > 0 else tuple(accepted)
@@ -180,7 +204,12 @@ def _mesh_scale_at_depth(
             mesh = () if sk == 1.0 else (MeshStiffnessDamping(stiffness_scale=sk),)
             effects = (*mesh, *accepted, eff)
             raw = cal._raw(effects)
-            memo[sk] = (cal.cmp.score(cal._features(raw)).balanced_chi2, raw)
+            # where the teeth separate: scored as the candidate is (bearing path and envelope scatter
+            # fitted against the healthy run at that scale)
+            feats = (
+                cal._tooth_features(raw, eff, (*mesh, *accepted)) if _rattling(cal) else cal._features(raw)
+            )
+            memo[sk] = (cal.cmp.score(feats).balanced_chi2, raw)
         return memo[sk][0]
 
     vals = [run(sk) for sk in MESH_SCALE_GRID]

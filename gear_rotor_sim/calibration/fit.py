@@ -51,8 +51,13 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
-from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_applies, refine_depth_by_ratios
+from gear_rotor_sim.calibration.candidates_tooth import (
+    ratio_depth_applies,
+    ratio_depth_in_contact,
+    refine_depth_by_ratios,
+)
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import (
     FUNDAMENTAL_FAMILY,
@@ -61,9 +66,11 @@ from gear_rotor_sim.calibration.comb_families import (
     fundamental_present,
     significant_families,
 )
+from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_scatter
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
     mesh_channels,
+    mesh_comb_gain,
     path_factors,
     scale_channels,
     with_path,
@@ -418,22 +425,14 @@ class Calibrator:
 
     def _path_mask(self, e: Effect | None) -> np.ndarray | None:
         """Channels whose transfer of ``e``'s signature is a fitted nuisance where the teeth separate
-        (``fault_path.py``): the radial bearing channels for a damaged tooth (not against a held
-        reference baseline), every channel but the axial forces for a misaligned wheel
-        (``candidates_misalignment.py``); None otherwise."""
+        (``fault_path.py``): the radial bearing channels for a damaged tooth, every channel but the axial
+        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise. Also against a
+        held reference baseline (docs/calibration.md Sec. 8.17: a tooth must then gain at the mesh)."""
         mask = getattr(self.cmp, "fault_path", None)
         if mask is None:
             return None
         if isinstance(e, GearMisalignment):
-            # with a held reference too: the angle comes from the axial force, which keeps the model's
-            # path, and the candidate must explain the axial channels' excess (its own signature); held
-            # at the model's path the FE rattle's edge-loaded mesh part cancelled the axial line's gain
-            # (1 mrad at 8000 rpm: explained 0.7 %, docs/calibration.md Sec. 8.15)
             return misalignment_path(self.cmp.names)
-        if not self.fit_baseline:
-            # a damaged tooth not against a held reference baseline: there the rule let a pinion tooth
-            # (depth 0.08) claim 22 % of the healthy 8000 rpm record's excess (Sec. 8.11)
-            return None
         return mask if isinstance(e, ToothDamage) else None
 
     def _full_features(self, raw: np.ndarray, e: Effect | None = None) -> ModelFeatures:
@@ -528,8 +527,13 @@ class Calibrator:
         return _screened(eff, score, sc, {"offset_c": sig}, dbic, expl)
 
     def _wear_screen(self, score: Score) -> FoundEffect | None:
-        """Tooth wear from the DTE mean against a held reference (``candidates_wear_reference.py``)."""
+        """Tooth wear against a held reference: from the DTE mean in contact
+        (``candidates_wear_reference.py``), from the DTE amplitude at the mesh frequency where the teeth
+        separate (``candidates_wear_rattle.py``)."""
         hit = screen_wear_on_dte_mean(self, score)
+        if hit is None:
+            # where the teeth separate: from the rattle amplitude (candidates_wear_rattle.py)
+            hit = screen_wear_on_rattle_amplitude(self, score)
         if hit is None:
             return None
         eff, sc, sig = hit
@@ -796,7 +800,67 @@ class Calibrator:
         sd = self._curvature_sigma(obj, d_best, val, 0.02, 2, 0.0)
         eff = dataclasses.replace(e, tooth=i_best + 1, depth=d_best)
         feats = cur.combo(sig(d_best, i_best), 1.0)
-        return CandidateFit(eff, self.cmp.score(feats), None, 2, {"depth": sd, "tooth": 0.0}, feats=feats)
+        feats, n_scatter = self._tooth_scatter(feats, self._raw((eff,)) - self.base_raw)
+        return CandidateFit(
+            eff, self.cmp.score(feats), None, 2 + n_scatter, {"depth": sd, "tooth": 0.0}, feats=feats
+        )
+
+    def _tooth_scatter(self, feats: ModelFeatures, change_raw: np.ndarray) -> tuple[ModelFeatures, int]:
+        """Where the teeth separate: the revolution-to-revolution scatter of the damaged tooth's response
+        ``change_raw`` (raw channels) in the non-synchronous envelope, one fitted factor per envelope
+        channel (``envelope_scatter.py``). Returns the features and the number of factors fitted."""
+        if not (self.rattle_rules and scatter_applies(self.cmp, self.base_contact_loss)):
+            return feats, 0
+        change = self.runner.outputs(change_raw)
+        out, sigma = with_scatter(self.cmp, feats, change)
+        self._scatter_sigma = sigma
+        return out, int(np.count_nonzero(sigma))
+
+    def _gain_beyond_baseline(self, pre: Sequence[Effect], score: Score, k: int) -> tuple[float, float]:
+        """Delta BIC and share of the excess that a candidate scored ``score`` on the machine with ``pre``
+        (a baseline set fitted with it and the accepted effects) explains beyond that machine's healthy
+        run: what the candidate itself explains, not the baseline set that came with it."""
+        h = self.cmp.score(self._full_features(self._raw(tuple(pre))))
+        gain = h.balanced_chi2 - score.balanced_chi2
+        return gain - k * math.log(self.n_total), gain / max(h.balanced_chi2 - self.n_total, 1e-12)
+
+    def _tooth_notes(self, e: ToothDamage, at: str) -> None:
+        """Notes on the nuisance factors of the last :meth:`_tooth_features` (path, scatter)."""
+        if self._path_mask(e) is not None:
+            self.notes.append(
+                f"{e.label} at {at}: its response at these channels taken as the model's times a fitted "
+                "transfer factor ("
+                + ", ".join(
+                    f"{n} {a:.2g}"
+                    for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(e), strict=True)
+                    if m
+                )
+                + "; fault_path.py): its parameters are set by the other channels"
+            )
+        if self._n_scatter:
+            self.notes.append(
+                f"{e.label} at {at}: the revolution-to-revolution scatter of its response in the "
+                "non-synchronous envelope, factor "
+                + ", ".join(
+                    f"{n} {v:.3g}" for n, v in zip(self.cmp.names, self._scatter_sigma, strict=True) if v > 0
+                )
+                + " of the model's response (envelope_scatter.py)"
+            )
+
+    def _tooth_features(self, raw: np.ndarray, e: ToothDamage, pre: Sequence[Effect]) -> ModelFeatures:
+        """Features of a damaged tooth's full run ``raw`` on the machine with ``pre`` (the accepted
+        effects, and a baseline set fitted with the tooth): where the teeth separate its response at the
+        bearing channels enters with fitted path factors (``fault_path.py``) and its scatter in the
+        non-synchronous envelope with fitted factors (``envelope_scatter.py``), both against that
+        machine's own healthy run; elsewhere the plain full-run features."""
+        f = self._full_features(raw)
+        mask = self._path_mask(e)
+        if mask is not None:
+            f, self._path_a = with_path(self.cmp, self._full_features(self._raw(tuple(pre))), f, mask)
+        self._n_scatter = 0
+        if self.rattle_rules and scatter_applies(self.cmp, self.base_contact_loss):
+            f, self._n_scatter = self._tooth_scatter(f, raw - self._raw(tuple(pre)))
+        return f
 
     def _fit_candidate(self, e: Effect, cur: ModelFeatures) -> CandidateFit | None:
         op = self.m.operating_point
@@ -869,6 +933,17 @@ class Calibrator:
         )
         if ok and float(np.sum(gain)) < rival_gain:
             ok = False
+        if ok and self._path_mask(e) is not None:
+            # where its path to the other channels is fitted, the tooth is named by the channels at the
+            # mesh; it must be seen there too (fault_path.mesh_comb_gain)
+            g_mesh = mesh_comb_gain(self.cmp, self._cur_feat, fit.feats, own)
+            if math.isfinite(g_mesh) and g_mesh <= self.fit.bic_threshold + math.log(self.n_total):
+                self.notes.append(
+                    f"{e.label}: not claimed, the comb of its wheel's shaft at the channels at the mesh "
+                    f"(DTE) gains {g_mesh:.3g} in chi2: its gain elsewhere ({gain[own]:.3g}) is model-form "
+                    "content of channels whose path is fitted or uncertain, not a damaged tooth"
+                )
+                ok = False
         if ok:
             # a damaged tooth raises the whole comb; one sideband family alone is a response component
             # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
@@ -888,7 +963,7 @@ class Calibrator:
                 ok = False
             elif fams and getattr(self, "_at_rattle", False) and not fundamental_present(fams, sig):
                 # where the teeth separate rattle components lock onto several shaft orders at once,
-                # with or without a held reference baseline (candidates_wear_rattle.py)
+                # with or without a held reference baseline (docs/calibration.md Sec. 8.16)
                 self.notes.append(
                     f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
                     f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
@@ -1089,18 +1164,58 @@ class Calibrator:
                     break
         xb, _, rb = min(pts, key=lambda t: t[1])
         eff = e.with_parameters(**{main.name: xb})
+        if isinstance(eff, ToothDamage):
+            fb = self._tooth_features(rb, eff, accepted)
+        else:
+            fb = self._full_features(rb, eff)
+            if self._path_mask(eff) is not None:
+                self.notes.append(
+                    f"{eff.label} at {main.name} {xb:.3g}: its response at these channels taken as the "
+                    "model's times a fitted transfer factor ("
+                    + ", ".join(
+                        f"{n} {a:.2g}"
+                        for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(eff), strict=True)
+                        if m
+                    )
+                    + "; fault_path.py): its parameters are set by the other channels"
+                )
         if isinstance(eff, ToothDamage) and ratio_depth_applies(self):
             # without a reference the mesh stiffness scale is not identified: the depth is read from
             # the scale-free sideband energy ratios of the named tooth (candidates_tooth.py)
             rd = refine_depth_by_ratios(self, eff, accepted)
             if rd is not None:
-                fr = self._full_features(rd.raw, rd.effect)
+                pre = (*([rd.mesh_set] if rd.mesh_set is not None else []), *accepted)
+                fr = self._tooth_features(rd.raw, rd.effect, pre)
                 score = self.cmp.score(fr)
-                chi_abs = min(p[1] for p in pts)
+                chi_abs = self.cmp.score(fb).balanced_chi2
                 # the ratio depth with the mesh scale it implies must explain the whole record better
                 # than the absolute depth at the current scale (BIC, one parameter more)
                 penalty = math.log(self.n_total) if rd.mesh_set is not None else 0.0
-                if score.balanced_chi2 + penalty < chi_abs:
+                # where the teeth separate a mesh scale moves the whole rattle response: the tooth must
+                # explain the record beyond the healthy model at that scale (the temperature record at
+                # 8000 rpm took a pinion tooth of depth 0.144 with a mesh x1.62 that carried the gain)
+                own = (
+                    self._gain_beyond_baseline(pre, score, fit.k)
+                    if rd.mesh_set is not None and not ratio_depth_in_contact(self)
+                    else None
+                )
+                if own is not None:
+                    self.notes.append(
+                        f"{rd.effect.label} at the ratio depth {rd.effect.depth:.3g}: beyond the healthy "
+                        f"model at the mesh scale x{rd.mesh_set.stiffness_scale:.3g} it explains "
+                        f"{own[1]:.2f} of the excess (dBIC {own[0]:.4g})"
+                    )
+                if (
+                    score.balanced_chi2 + penalty < chi_abs
+                    and own is not None
+                    and not (own[0] > self.fit.bic_threshold and own[1] >= self.fit.min_explained)
+                ):
+                    self.notes.append(
+                        f"{eff.label}: the ratio depth {rd.effect.depth:.3g} is not used: the mesh scale "
+                        "fitted with it, not the tooth, carries the improvement"
+                    )
+                elif score.balanced_chi2 + penalty < chi_abs:
+                    self._tooth_notes(rd.effect, f"depth {rd.effect.depth:.3g} (sideband energy ratios)")
                     unc = {**fit.uncertainty, "depth": rd.sigma}
                     return dataclasses.replace(
                         fit,
@@ -1111,23 +1226,16 @@ class Calibrator:
                         feats=fr,
                         baseline_set=rd.mesh_set,
                     )
-                self.notes.append(
-                    f"{eff.label}: the ratio depth {rd.effect.depth:.3g} is not used: with the mesh scale "
-                    f"it implies the record is explained worse (chi2 {score.balanced_chi2:.4g}) than at the "
-                    f"absolute depth {eff.depth:.3g} (chi2 {chi_abs:.4g})"
-                )
-        fb = self._full_features(rb, eff)
-        if self._path_mask(eff) is not None:
-            self.notes.append(
-                f"{eff.label} at {main.name} {xb:.3g}: its response at these channels taken as the "
-                "model's times a fitted transfer factor ("
-                + ", ".join(
-                    f"{n} {a:.2g}"
-                    for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(eff), strict=True)
-                    if m
-                )
-                + "; fault_path.py): its parameters are set by the other channels"
-            )
+                else:
+                    self.notes.append(
+                        f"{eff.label}: the ratio depth {rd.effect.depth:.3g} is not used: with the mesh "
+                        f"scale it implies the record is explained worse (chi2 {score.balanced_chi2:.4g}) "
+                        f"than at the absolute depth {eff.depth:.3g} (chi2 {chi_abs:.4g})"
+                    )
+                # the path factors and scatter of the absolute depth again
+                fb = self._tooth_features(rb, eff, accepted)
+        if isinstance(eff, ToothDamage):
+            self._tooth_notes(eff, f"{main.name} {xb:.3g}")
         return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
 
     def _verify_tooth(self, e: ToothDamage, accepted: list[Effect]) -> ToothDamage:
@@ -1370,6 +1478,9 @@ class Calibrator:
                 self.base_contact_loss,
                 self.m.issues,
             )
+        if self._at_rattle:
+            # a worn machine stays on the healthy machine's rattle branch (candidates_wear_rattle.py)
+            self.runner.grown_effects = (ToothWear,)
         self._refit_transfer(self._features(self.base_raw))
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total

@@ -43,7 +43,7 @@ from gear_rotor_sim.calibration.features_bearing import static_sensor_gains
 from gear_rotor_sim.calibration.features_envelope_noise import bin_sum_variance_factor, envelope_noise_shape
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
-from gear_rotor_sim.calibration.model_settle import run_settled, whole_period_samples
+from gear_rotor_sim.calibration.model_settle import grown_start_samples, run_settled, whole_period_samples
 from gear_rotor_sim.calibration.model_window import hunting_period_s
 
 FAMILIES = ("order", "envelope", "static")
@@ -162,6 +162,10 @@ class ModelRunner:
     #: contact-loss fraction (time share of separated teeth) of the last run returned
     last_contact_loss: float = float("nan")
     n_moved: int = 0  # runs whose window was moved on past a step-rule switch (model_settle.py)
+    #: effect types that a run switches on after whole hunting periods of the run without them,
+    #: instead of starting from the static equilibrium with them (``candidates_wear_rattle.py``:
+    #: worn teeth where the teeth separate stay on the healthy machine's rattle branch)
+    grown_effects: tuple[type, ...] = ()
 
     def __post_init__(self) -> None:
         cfg = self.cfg
@@ -190,6 +194,7 @@ class ModelRunner:
 
     def force_signals(self, effects: Sequence[object] = ()) -> np.ndarray:
         """Simulated raw channels (bearing forces for housing channels), shape (n_model, n_sim_channels)."""
+        grown = [e for e in effects if self.grown_effects and isinstance(e, self.grown_effects)]
         key = "|".join(
             [
                 self._key,
@@ -200,6 +205,7 @@ class ModelRunner:
                 ",".join(self.sim_channels()),
                 str(self.steps_per_mesh),
                 repr(tuple(effects)),
+                *(["grown"] if grown else []),
             ]
         )
         hit = _CACHE.get(key)
@@ -214,6 +220,8 @@ class ModelRunner:
             fn = getattr(e, "operating_point", None)
             if fn is not None:
                 speed, temp = fn(speed, temp)
+        period = whole_period_samples(hunting_period_s(self.cfg, speed), self.sample_rate_hz)
+        pre = grown_start_samples(period, self.sample_rate_hz) if grown else 0
         sim = Simulator(
             self.cfg,
             speed_rpm=speed,
@@ -221,20 +229,25 @@ class ModelRunner:
             output_rate_hz=self.sample_rate_hz,
             channels=self.sim_channels(),
             steps_per_mesh=self.steps_per_mesh,
-            effects=tuple(effects),
+            effects=tuple(e for e in effects if not any(e is g for g in grown)) if pre else tuple(effects),
             system_builder=cached_system,
         )
         i0 = round(self.start_time * self.sample_rate_hz)
         n = self.n_model
+        if pre:
+            # grown effects: whole hunting periods without them, then switched on (the output's phase
+            # is unchanged; candidates_wear_rattle.py)
+            sim.advance(pre / self.sample_rate_hz)
+            sim.set_effects(tuple(effects))
         # the window holds no switch of the simulator's step rule (a start-up separation would put the
         # rule's contact-loss setting into it: model_settle.py); else it moves on by hunting periods
-        period = whole_period_samples(hunting_period_s(self.cfg, speed), self.sample_rate_hz)
         run = run_settled(sim, i0, n, self.sample_rate_hz, period)
         data = run.data
         if data.shape[0] != n:
             raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n}")
+        first = pre + run.first_index
         add_direct_bearing_forces(
-            data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, run.first_index
+            data, self.sim_channels(), effects, self.cfg, temp, speed, self.sample_rate_hz, first
         )
         self.n_runs += 1
         self.n_moved += run.shifts > 0
