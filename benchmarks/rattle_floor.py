@@ -14,8 +14,8 @@ revolutions and the scatter estimate is too small).
 Usage::
 
     python -m lumped_gearbox record --speed-rpm 8000 --temperature-c 25 --seed 35 --out out/h8000.csv
-    python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12]
-    python benchmarks/rattle_floor.py RECORD.csv --calibrate [--baseline REFERENCE.json]
+    python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12] [--corrected-envelope]
+    python benchmarks/rattle_floor.py RECORD.csv --calibrate [--baseline REF.json] [--corrected-envelope]
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
-from gear_rotor_sim.calibration.residual import order_coefficients
+from gear_rotor_sim.calibration.residual import ResidualSettings, order_coefficients
 
 
 def group_of(orders: np.ndarray, teeth: int) -> list[str]:
@@ -70,13 +70,15 @@ def batch_ratio(y: np.ndarray, fs: float, shafts_hz: list[float], s: int, orders
     return vb / var, var
 
 
-def after_fit(record: Path, baseline: str | None) -> int:
+def after_fit(record: Path, baseline: str | None, settings: ResidualSettings) -> int:
     """Run ``Calibrator.run`` and print the residual before and after per family, channel and shaft, and
     every channel's low orders 1-2 of the output shaft (a misalignment's axial line and 2x order)."""
     from gear_rotor_sim.calibration.baseline import load_reference
 
     m = load_measurement(record)
-    cal = Calibrator(m, **(load_reference(baseline).calibrator_kwargs() if baseline else {}))
+    cal = Calibrator(
+        m, settings=settings, **(load_reference(baseline).calibrator_kwargs() if baseline else {})
+    )
     res = cal.run()
     cmp = res.comparison
     print("effects:", [(e.label, e.parameters) for e in res.effects])
@@ -127,11 +129,17 @@ def main(argv: list[str] | None = None) -> int:
         help="run the whole calibration instead and break down the residual before and after it",
     )
     ap.add_argument("--baseline", default=None, help="reference baseline JSON (with --calibrate)")
+    ap.add_argument(
+        "--corrected-envelope",
+        action="store_true",
+        help="the envelope's corrected noise model (ResidualSettings.envelope_noise_corrected)",
+    )
     args = ap.parse_args(argv)
+    settings = ResidualSettings(envelope_noise_corrected=args.corrected_envelope)
     if args.calibrate:
-        return after_fit(Path(args.record), args.baseline)
+        return after_fit(Path(args.record), args.baseline, settings)
     m = load_measurement(Path(args.record))
-    cal = Calibrator(m)
+    cal = Calibrator(m, settings=settings)
     cal._feat_correction = None
     cal._setup()
     nominal = cal._features(cal.base_raw)

@@ -24,7 +24,7 @@ def test_healthy_rattle_record_envelope_is_at_the_noise_level(tmp_path) -> None:
     errors = {}
     for shaped in (True, False):
         m = load_measurement(path)
-        cal = Calibrator(m, baseline_sets=[], settings=ResidualSettings(envelope_shaped_floor=shaped))
+        cal = Calibrator(m, baseline_sets=[], settings=ResidualSettings(envelope_noise_corrected=shaped))
         cal._feat_correction = None
         cal._setup()
         nominal = cal._features(cal.base_raw)
