@@ -50,9 +50,10 @@ Five rules, applied only when the healthy model's teeth separate (contact-loss f
 5. **A mesh fault's path to the bearings fitted** (``fault_path.py``): a damaged tooth's or a
    misaligned wheel's response at the channels it reaches through the shaft and bearing dynamics
    enters with a fitted complex transfer factor; the channels at the mesh (and, for a misalignment,
-   the axial force) set the parameters, the DTE the tooth index; not against a held reference
-   baseline (``Calibrator._path_mask``). A damaged tooth must also raise its fundamental sideband
-   family (``comb_families.fundamental_present``), with or without a reference.
+   the axial force) set the parameters, the DTE the tooth index. A damaged tooth must also raise its
+   fundamental sideband family (``comb_families.fundamental_present``) and gain on the comb of its
+   wheel's shaft at the channels at the mesh (``fault_path.mesh_comb_gain``). With and without a held
+   reference baseline.
 """
 
 from __future__ import annotations

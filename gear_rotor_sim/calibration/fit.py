@@ -70,6 +70,7 @@ from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_sc
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
     mesh_channels,
+    mesh_comb_gain,
     path_factors,
     scale_channels,
     with_path,
@@ -425,11 +426,10 @@ class Calibrator:
     def _path_mask(self, e: Effect | None) -> np.ndarray | None:
         """Channels whose transfer of ``e``'s signature is a fitted nuisance where the teeth separate
         (``fault_path.py``): the radial bearing channels for a damaged tooth, every channel but the axial
-        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise."""
+        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise. Also against a
+        held reference baseline (docs/calibration.md Sec. 8.17: a tooth must then gain at the mesh)."""
         mask = getattr(self.cmp, "fault_path", None)
-        if mask is None or not self.fit_baseline:
-            # not against a held reference baseline: there the rule let a pinion tooth (depth 0.08)
-            # claim 22 % of the healthy 8000 rpm record's excess (docs/calibration.md Sec. 8.11)
+        if mask is None:
             return None
         if isinstance(e, GearMisalignment):
             return misalignment_path(self.cmp.names)
@@ -933,6 +933,17 @@ class Calibrator:
         )
         if ok and float(np.sum(gain)) < rival_gain:
             ok = False
+        if ok and self._path_mask(e) is not None:
+            # where its path to the other channels is fitted, the tooth is named by the channels at the
+            # mesh; it must be seen there too (fault_path.mesh_comb_gain)
+            g_mesh = mesh_comb_gain(self.cmp, self._cur_feat, fit.feats, own)
+            if math.isfinite(g_mesh) and g_mesh <= self.fit.bic_threshold + math.log(self.n_total):
+                self.notes.append(
+                    f"{e.label}: not claimed, the comb of its wheel's shaft at the channels at the mesh "
+                    f"(DTE) gains {g_mesh:.3g} in chi2: its gain elsewhere ({gain[own]:.3g}) is model-form "
+                    "content of channels whose path is fitted or uncertain, not a damaged tooth"
+                )
+                ok = False
         if ok:
             # a damaged tooth raises the whole comb; one sideband family alone is a response component
             # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
