@@ -14,7 +14,8 @@ revolutions and the scatter estimate is too small).
 Usage::
 
     python -m lumped_gearbox record --speed-rpm 8000 --temperature-c 25 --seed 35 --out out/h8000.csv
-    python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12]
+    python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12] [--corrected-envelope]
+    python benchmarks/rattle_floor.py RECORD.csv --calibrate [--baseline REF.json] [--corrected-envelope]
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
-from gear_rotor_sim.calibration.residual import order_coefficients
+from gear_rotor_sim.calibration.residual import ResidualSettings, order_coefficients
 
 
 def group_of(orders: np.ndarray, teeth: int) -> list[str]:
@@ -69,14 +70,76 @@ def batch_ratio(y: np.ndarray, fs: float, shafts_hz: list[float], s: int, orders
     return vb / var, var
 
 
+def after_fit(record: Path, baseline: str | None, settings: ResidualSettings) -> int:
+    """Run ``Calibrator.run`` and print the residual before and after per family, channel and shaft, and
+    every channel's low orders 1-2 of the output shaft (a misalignment's axial line and 2x order)."""
+    from gear_rotor_sim.calibration.baseline import load_reference
+
+    m = load_measurement(record)
+    cal = Calibrator(
+        m, settings=settings, **(load_reference(baseline).calibrator_kwargs() if baseline else {})
+    )
+    res = cal.run()
+    cmp = res.comparison
+    print("effects:", [(e.label, e.parameters) for e in res.effects])
+    print(
+        "candidates of round 1:", [(r.get("label"), r.get("explained_fraction")) for r in res.rounds[0][:4]]
+    )
+    for lab, model, sc in (
+        ("before", res.model_before, res.score_before),
+        ("after", res.model_after, res.score_after),
+    ):
+        feats = cmp.apply_shift(cmp.features(model), sc.tau)
+        corr = getattr(cal, "_feat_correction", None)
+        if lab == "after" and corr is not None:  # the fitted path of an accepted mesh fault
+            feats = feats.combo(cmp.apply_shift(corr, sc.tau), 1.0)
+        G = np.column_stack([sc.gains, sc.slopes])
+        fams = {f: round(sc.chi2[f] / sc.n[f], 3) for f in sc.chi2}
+        print(f"\n{lab}: error {sc.error:.3f}, chi2/N per family {fams}")
+        per = {}
+        for c in range(cmp.nc):
+            for s, sh in enumerate(cmp.shafts):
+                mg = cmp.order_gain(G, c, s) * feats.order[c][s]
+                d = cmp.d_order[c][s]
+                s2 = cmp.order_sigma2(c, s, mg)
+                chi = np.where(np.isfinite(s2), 2 * np.abs(d - mg) ** 2 / s2, 0.0)
+                per[f"{cmp.names[c]}/{sh.name}"] = round(float(chi.sum()))
+                if sh.name != cmp.shafts[-1].name:
+                    continue
+                for o in (1, 2):
+                    k = int(np.flatnonzero(sh.orders == o)[0])
+                    print(
+                        f"  {cmp.names[c]:12s} {sh.name} order {o}: "
+                        f"record {abs(d[k]):.3g} at {np.angle(d[k]):+.2f} rad,"
+                        f" model {abs(mg[k]):.3g} at {np.angle(mg[k]):+.2f} rad, sigma {np.sqrt(s2[k]):.2g},"
+                        f" chi2 {chi[k]:.3g}"
+                    )
+        print("  order chi2 per channel/shaft:", per)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("record", help="CSV + YAML record")
     ap.add_argument("--block", type=int, default=8, help="revolutions per block of the batch-means check")
     ap.add_argument("--top", type=int, default=12, help="orders listed with the largest chi^2")
+    ap.add_argument(
+        "--calibrate",
+        action="store_true",
+        help="run the whole calibration instead and break down the residual before and after it",
+    )
+    ap.add_argument("--baseline", default=None, help="reference baseline JSON (with --calibrate)")
+    ap.add_argument(
+        "--corrected-envelope",
+        action="store_true",
+        help="the envelope's corrected noise model (ResidualSettings.envelope_noise_corrected)",
+    )
     args = ap.parse_args(argv)
+    settings = ResidualSettings(envelope_noise_corrected=args.corrected_envelope)
+    if args.calibrate:
+        return after_fit(Path(args.record), args.baseline, settings)
     m = load_measurement(Path(args.record))
-    cal = Calibrator(m)
+    cal = Calibrator(m, settings=settings)
     cal._feat_correction = None
     cal._setup()
     nominal = cal._features(cal.base_raw)

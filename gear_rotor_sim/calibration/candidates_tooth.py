@@ -29,10 +29,16 @@ gain, ``F / k`` and most of the transfer path cancel:
 
 The ratio depth is offered when the fit uses at least ``MIN_FEATURES`` ratios and its minimum is
 inside the grid; the full simulation at that depth is then the candidate's model (its error and
-Delta BIC are judged as before). Applied only in continuous contact (the healthy model's
-contact-loss fraction at most ``features_rattle.MIN_CONTACT_LOSS``) and without a held reference
-baseline (with one the absolute depth is read against the reference's mesh scale: -1 % / +1 % on the
-independent records).
+Delta BIC are judged as before). Applied without a held reference baseline (with one the absolute
+depth is read against the reference's mesh scale: -1 % / +1 % on the independent records at 3000
+rpm). Where the teeth separate (the healthy model's contact-loss fraction above
+``features_rattle.MIN_CONTACT_LOSS``; docs/calibration.md Sec. 8.14) the model's ratios come from full
+simulations of the rattling model as everywhere (no linear response is assumed), and three things
+change: the mesh scale of step 5 is fitted on the candidate's own scoring (bearing path factors and
+envelope scatter fitted against the healthy run at that scale, ``Calibrator._tooth_features``); the
+tooth must explain the record beyond the healthy model at that scale (``Calibrator._refine``: a mesh
+scale moves the whole rattle response); and a sideband family left out as a locked rattle component
+(``features_rattle.py`` rule 2) is left out of the ratios.
 """
 
 from __future__ import annotations

@@ -51,8 +51,9 @@ Five rules, applied only when the healthy model's teeth separate (contact-loss f
    misaligned wheel's response at the channels it reaches through the shaft and bearing dynamics
    enters with a fitted complex transfer factor; the channels at the mesh (and, for a misalignment,
    the axial force) set the parameters, the DTE the tooth index. A damaged tooth must also raise its
-   fundamental sideband family (``comb_families.fundamental_present``). Not against a held
-   reference baseline (``Calibrator._path_mask``).
+   fundamental sideband family (``comb_families.fundamental_present``) and gain on the comb of its
+   wheel's shaft at the channels at the mesh (``fault_path.mesh_comb_gain``). With and without a held
+   reference baseline.
 """
 
 from __future__ import annotations

@@ -27,8 +27,10 @@ property of the tooth pair: contact ratio, single- and double-contact stiffness)
   member's ratios read against the nominal grid (the members move every ratio together, so the
   per-feature variances alone, treated as independent, would understate it).
 
-Assumes continuous tooth contact (a linear response to the stiffness modulation; where the teeth
-separate the sidebands are impact products) and a known speed (order tracking).
+Assumes a known speed (order tracking), and that the model reproduces how the sidebands grow with
+the depth: in continuous contact a linear response to the stiffness modulation; where the teeth
+separate the sidebands are impact products, and the model's ratios come from full simulations of the
+rattling model (``candidates_tooth.py``; docs/calibration.md Sec. 8.14).
 """
 
 from __future__ import annotations

@@ -57,6 +57,7 @@ from gear_rotor_sim.calibration.candidates_tooth import (
     refine_depth_by_ratios,
 )
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import (
     FUNDAMENTAL_FAMILY,
@@ -69,6 +70,7 @@ from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_sc
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
     mesh_channels,
+    mesh_comb_gain,
     path_factors,
     scale_channels,
     with_path,
@@ -442,11 +444,10 @@ class Calibrator:
     def _path_mask(self, e: Effect | None) -> np.ndarray | None:
         """Channels whose transfer of ``e``'s signature is a fitted nuisance where the teeth separate
         (``fault_path.py``): the radial bearing channels for a damaged tooth, every channel but the axial
-        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise."""
+        forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise. Also against a
+        held reference baseline (docs/calibration.md Sec. 8.17: a tooth must then gain at the mesh)."""
         mask = getattr(self.cmp, "fault_path", None)
-        if mask is None or not self.fit_baseline:
-            # not against a held reference baseline: there the rule let a pinion tooth (depth 0.08)
-            # claim 22 % of the healthy 8000 rpm record's excess (docs/calibration.md Sec. 8.11)
+        if mask is None:
             return None
         if isinstance(e, GearMisalignment):
             return misalignment_path(self.cmp.names)
@@ -544,8 +545,13 @@ class Calibrator:
         return _screened(eff, score, sc, {"offset_c": sig}, dbic, expl)
 
     def _wear_screen(self, score: Score) -> FoundEffect | None:
-        """Tooth wear from the DTE mean against a held reference (``candidates_wear_reference.py``)."""
+        """Tooth wear against a held reference: from the DTE mean in contact
+        (``candidates_wear_reference.py``), from the DTE amplitude at the mesh frequency where the teeth
+        separate (``candidates_wear_rattle.py``)."""
         hit = screen_wear_on_dte_mean(self, score)
+        if hit is None:
+            # where the teeth separate: from the rattle amplitude (candidates_wear_rattle.py)
+            hit = screen_wear_on_rattle_amplitude(self, score)
         if hit is None:
             return None
         eff, sc, sig = hit
@@ -945,6 +951,17 @@ class Calibrator:
         )
         if ok and float(np.sum(gain)) < rival_gain:
             ok = False
+        if ok and self._path_mask(e) is not None:
+            # where its path to the other channels is fitted, the tooth is named by the channels at the
+            # mesh; it must be seen there too (fault_path.mesh_comb_gain)
+            g_mesh = mesh_comb_gain(self.cmp, self._cur_feat, fit.feats, own)
+            if math.isfinite(g_mesh) and g_mesh <= self.fit.bic_threshold + math.log(self.n_total):
+                self.notes.append(
+                    f"{e.label}: not claimed, the comb of its wheel's shaft at the channels at the mesh "
+                    f"(DTE) gains {g_mesh:.3g} in chi2: its gain elsewhere ({gain[own]:.3g}) is model-form "
+                    "content of channels whose path is fitted or uncertain, not a damaged tooth"
+                )
+                ok = False
         if ok:
             # a damaged tooth raises the whole comb; one sideband family alone is a response component
             # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
@@ -964,7 +981,7 @@ class Calibrator:
                 ok = False
             elif fams and getattr(self, "_at_rattle", False) and not fundamental_present(fams, sig):
                 # where the teeth separate rattle components lock onto several shaft orders at once,
-                # with or without a held reference baseline (candidates_wear_rattle.py)
+                # with or without a held reference baseline (docs/calibration.md Sec. 8.16)
                 self.notes.append(
                     f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
                     f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
@@ -1485,6 +1502,9 @@ class Calibrator:
                 self.base_contact_loss,
                 self.m.issues,
             )
+        if self._at_rattle:
+            # a worn machine stays on the healthy machine's rattle branch (candidates_wear_rattle.py)
+            self.runner.grown_effects = (ToothWear,)
         self._refit_transfer(self._features(self.base_raw))
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total

@@ -38,6 +38,9 @@ RULE_STATS = ("decimation", "contact_loss_rule", "exact_modal_map", "located")
 #: pieces in which the window is advanced (shorter than the rule window, 0.1 s, so that a setting
 #: held for one rule window is always seen)
 PIECE_S = 0.05
+#: shortest run without a grown effect before it is switched on (``ModelRunner.grown_effects``): the
+#: FE paper gearbox at 8000 rpm reaches its rattle branch from the static equilibrium within 0.2 s
+GROWN_START_S = 0.2
 #: the setting must be unchanged from this long before the window's start
 SETTLE_S = 0.05
 
@@ -60,6 +63,21 @@ def whole_period_samples(period_s: float | None, sample_rate_hz: float, tol: flo
     p = period_s * sample_rate_hz
     n = round(p)
     return int(n) if n >= 1 and abs(p - n) <= tol else None
+
+
+def grown_start_samples(
+    period_samples: int | None, sample_rate_hz: float, min_s: float = GROWN_START_S
+) -> int:
+    """Length of the run before a grown effect is switched on: the fewest whole hunting periods that
+    last at least ``min_s`` (the healthy response is then on its branch), or 0 when the period is not
+    a whole number of samples (the effect is then present from the start).
+
+    Every library effect's response is periodic in the hunting period (``model_window.py``), so a
+    window taken after such a start has the order phases of a run started at time 0.
+    """
+    if period_samples is None or period_samples < 1:
+        return 0
+    return int(period_samples * max(1, math.ceil(min_s * sample_rate_hz / period_samples)))
 
 
 def _rule(sim: Any) -> tuple[float, ...]:

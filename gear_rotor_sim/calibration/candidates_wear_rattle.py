@@ -1,0 +1,167 @@
+"""Tooth wear where the teeth separate: the rattle amplitude scales with the gap (``--baseline``).
+
+Where the teeth separate (8000 rpm on the paper gearbox) the mesh is a clearance oscillator driven
+near its resonance: free flight across the backlash ``2 b``, impacts on both flanks. On the backbone
+of such an oscillator the response scales with the gap: its shape (the distribution of the DTE, the
+share of time in contact, the ratio of the mesh harmonics) does not move with wear, and its
+amplitude at the mesh frequency follows ``A = alpha (b + F0 / k)`` (``F0 = T / r_b`` the static mesh
+force: the drive flank is preloaded by ``F0 / k``). Measured on the DTE at 8000 rpm, 25 C
+(docs/calibration.md Sec. 8.16): 20 um of wear (``b`` 35 -> 55 um) multiplies the amplitude by 1.455
+in the independent lumped gearbox and by 1.460 in the FE model, where the law gives
+``1 + 20 / (35 + 9.2) = 1.45``; kurtosis, quantile ratios and ``H2 / H1`` stay within 1-2 % in both.
+
+``alpha`` is set by the mesh resonance (stiffness, damping): the nominal FE model's is 30 % above the
+lumped gearbox's (2.61 against 2.00 um per um), more than 20 um of wear moves the amplitude, so
+without a reference the amplitude cannot tell wear from model-form error and nothing is claimed
+from it. A healthy reference record of the same machine (``--baseline``, any speed; the benchmark's
+is at 2000 rpm, teeth in contact) fixes the mesh stiffness and damping scales: the reference-updated
+FE model's ``alpha`` is 1.99, within 3.5 % of the lumped record's healthy amplitude; every non-wear
+rattle record of the benchmark then reads -0.4 to 2.0 um, the worn one 22.8 um for 20.
+
+Rule (:func:`screen_wear_on_rattle_amplitude`; a held reference baseline, the healthy model's teeth
+separating, a DTE channel): the record's DTE amplitude at the first mesh order ``A_d`` against the
+healthy model's ``A_m`` must stand more than :data:`Z_TRIGGER` standard deviations above it (noise,
+the spread of that coefficient over the baseline ensemble of ``features_rattle.py`` and the contact
+model-form tolerance, 5 %, on ``A_m``; not the channel's rattle tolerance of rule 3, the median over
+all its orders, which the rattle products with their 100-400 % spread set); the
+depth is ``h = (A_d / A_m - 1) (b + F0 / k)`` with ``b`` the model's half backlash and ``k`` its mean
+mesh stiffness (baseline scale applied); the full run at ``h`` must improve the balanced chi^2
+beyond the BIC threshold and lower the main (family-balanced) error. It is found before the
+rounds, like the DTE-mean wear in contact (``candidates_wear_reference.py``).
+
+Why the law and not the model's own worn runs for the depth: the reference-updated FE model (damping
+x1.7 at its grid bound) grows less with wear than both the law and the lumped record (x1.39 at
+22.8 um), and from the static equilibrium it is bistable above 15 um (a small-amplitude branch, DTE
+mean 27-43 um). A gearbox wears over millions of mesh cycles and stays on its branch, so wear runs
+at rattle start on the healthy branch (``ModelRunner.grown_effects``: whole hunting periods without
+the wear, then with it).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gear_rotor_sim.calibration.candidates_wear_reference import dte_channel
+from gear_rotor_sim.faults import MeshStiffnessDamping, ToothWear
+
+if TYPE_CHECKING:
+    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.residual import Score
+
+#: the healthy model's teeth must separate (contact-loss fraction of its run above this)
+MIN_CONTACT_LOSS = 0.01
+#: the record's amplitude must stand this many standard deviations above the model's
+Z_TRIGGER = 3.0
+
+
+def wear_from_amplitude(a_record: float, a_model: float, half_backlash_m: float, preload_m: float) -> float:
+    """Wear depth from the rattle amplitude law ``A = alpha (b + F0/k)``, m (negative: smaller gap).
+
+    Parameters
+    ----------
+    a_record, a_model : float
+        DTE amplitude at the mesh frequency of the record and of the healthy model.
+    half_backlash_m : float
+        The model's half backlash ``b`` at the operating temperature, m.
+    preload_m : float
+        The static mesh deflection ``F0 / k``, m.
+    """
+    if not (a_model > 0 and half_backlash_m + preload_m > 0):
+        raise ValueError(
+            f"a_model: {a_model!r} and half_backlash_m + preload_m: {half_backlash_m + preload_m!r} "
+            "must be > 0"
+        )
+    return (a_record / a_model - 1.0) * (half_backlash_m + preload_m)
+
+
+def gap_and_preload(cal: Calibrator, mesh: int) -> tuple[float, float]:
+    """The model's half backlash ``b`` (thermal, at the operating temperature) and ``F0 / k`` of ``mesh``,
+    with the baseline and the screened effects applied."""
+    from gear_rotor_sim.calibration.residual import cached_system
+
+    effects = (*cal.baseline, *cal.pre_effects)
+    cfg = cal.runner.cfg
+    temp = cal.m.operating_point.temperature_c
+    speed = cal.m.operating_point.speed_rpm
+    for e in effects:
+        cfg = e.modify_config(cfg)
+        fn = getattr(e, "operating_point", None)
+        if fn is not None:
+            speed, temp = fn(speed, temp)
+    sysm = cached_system(cfg, temp).meshes[mesh - 1]
+    scale = math.prod(e.stiffness_scale for e in effects if isinstance(e, MeshStiffnessDamping))
+    torque = float(cfg.load.torque_nm) if cfg.load is not None else 0.0
+    k = scale * float(sysm.mean_stiffness)
+    return float(sysm.half_backlash), torque / float(sysm.base_radius_gear) / k
+
+
+def screen_wear_on_rattle_amplitude(cal: Calibrator, score: Score) -> tuple[ToothWear, Score, float] | None:
+    """Wear depth from the DTE amplitude at the mesh frequency against a held reference baseline where
+    the teeth separate (module docstring). Returns (effect, its full score, standard deviation of the
+    depth) or None; reasons a user needs go to ``cal.notes``."""
+    if cal.fit_baseline or "order" not in cal.cmp.families or not getattr(cal, "_at_rattle", False):
+        return None
+    cand = next((e for e in cal.candidates if isinstance(e, ToothWear)), None)
+    if cand is None or not cal.base_contact_loss > MIN_CONTACT_LOSS or len(cal.runner.cfg.meshes) != 1:
+        return None
+    c = dte_channel(list(cal.cmp.names), cand.mesh, 1)
+    sh = next((s for s, x in enumerate(cal.cmp.shafts) if x.teeth), None)
+    if c is None or sh is None:
+        return None
+    orders = np.asarray(cal.cmp.shafts[sh].orders)
+    hit = np.flatnonzero(orders == cal.cmp.shafts[sh].teeth)
+    if hit.size == 0:
+        return None
+    i = int(hit[0])
+    base = cal._features(cal.base_raw)
+    a_m = float(abs(base.order[c][sh][i]))
+    a_d = float(abs(cal.cmp.d_order[c][sh][i]))
+    # noise, the spread of this coefficient over the baseline ensemble (features_rattle rule 1) and the
+    # contact model-form tolerance
+    var = float(cal.cmp.v_order[c][sh][i]) + (cal.cmp.s.tolerance * a_m) ** 2
+    if cal.cmp.v_model_form is not None:
+        var += float(cal.cmp.v_model_form[c][sh][i])
+    sd = math.sqrt(var)
+    if not (np.isfinite(sd) and a_m > 0 and a_d - a_m > Z_TRIGGER * sd):
+        return None
+    b, pre = gap_and_preload(cal, cand.mesh)
+    upper = cand.specs[0].upper
+    h = wear_from_amplitude(a_d, a_m, b, pre)
+    sd_h = sd / a_m * (b + pre)
+    if not 0.0 < h < 0.99 * upper:
+        return None
+    eff = cand.with_parameters(wear_depth_m=h)
+    sc = cal.cmp.score(cal._features(cal._raw((eff,))))
+    dbic = score.balanced_chi2 - sc.balanced_chi2 - math.log(score.n_total)
+    if dbic <= cal.fit.bic_threshold:
+        cal.notes.append(
+            f"wear from the rattle amplitude: the DTE at the mesh frequency stands {(a_d - a_m) / sd:.3g} "
+            f"sigma above the reference-updated model ({1e6 * a_d:.3g} against {1e6 * a_m:.3g} um), i.e. "
+            f"{1e6 * h:.3g} um of wear by A = alpha (b + F0/k), but the full features get worse "
+            f"(dBIC {dbic:.3g}): not claimed"
+        )
+        return None
+    if not sc.error < score.error:
+        # the claim must lower the main metric it is reported with (family-balanced): at rattle the worn
+        # FE model's DTE mean rises 4x faster than the independent record's (docs/calibration.md Sec. 8.16)
+        fam = ", ".join(
+            f"{f} {math.sqrt(score.chi2[f] / score.n[f]):.3g} -> {math.sqrt(sc.chi2[f] / sc.n[f]):.3g}"
+            for f in score.chi2
+            if score.n.get(f, 0) > 0 and f in sc.chi2
+        )
+        cal.notes.append(
+            f"wear from the rattle amplitude: {1e6 * h:.3g} um by A = alpha (b + F0/k) (the DTE at the mesh "
+            f"frequency {(a_d - a_m) / sd:.3g} sigma above the reference-updated model), dBIC {dbic:.3g}, "
+            f"but the error gets worse ({score.error:.3g} -> {sc.error:.3g}; by family {fam}): not claimed"
+        )
+        return None
+    cal.notes.append(
+        f"wear from the rattle amplitude: DTE at the mesh frequency {1e6 * a_d:.3g} um against "
+        f"{1e6 * a_m:.3g} um of the reference-updated model ({(a_d - a_m) / sd:.3g} sigma); "
+        f"h = (A_d / A_m - 1)(b + F0/k), b = {1e6 * b:.3g} um, F0/k = {1e6 * pre:.3g} um "
+        "(candidates_wear_rattle.py)"
+    )
+    return eff, sc, sd_h
