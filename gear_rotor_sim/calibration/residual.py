@@ -874,7 +874,9 @@ class Comparison:
             # 3000 rpm outer-race record, prominence 1.4-1.9 in every band against 115-147 on
             # bearing2_fy, drew 1.2-2.4 kHz at 64 steps per mesh period and 2.4-4.8 kHz at 32, and the
             # fitted force moved from 278 N to 194 N for 300)
-            for c, sc in scores.items() if self.s.envelope_band_fallback else ():
+            for c, sc in (
+                scores.items() if getattr(self, "band_fallback", self.s.envelope_band_fallback) else ()
+            ):
                 site = self.names[c].split("_")[0]  # bearing<k>: the channels at the same bearing
                 peers = {k: v for k, v in scores.items() if self.names[k].split("_")[0] == site}
                 best = max(peers, key=lambda k: peers[k])
