@@ -206,6 +206,7 @@ def fit_reference_baseline(
         settings=st,
         fit_settings=FitSettings(max_effects=0),
         steps_per_mesh=steps_per_mesh,
+        reference_numerics=True,
         log=log,
         **calibrator_kw,
     )

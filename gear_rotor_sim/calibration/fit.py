@@ -367,6 +367,7 @@ class Calibrator:
         model_window: bool = True,
         baseline_reference: dict[str, Any] | None = None,
         rattle_rules: bool = True,
+        reference_numerics: bool | None = None,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -376,6 +377,9 @@ class Calibrator:
                 cfg = cfg.with_bearing_type(measurement.bearing_type)
         self.m = measurement
         self.rattle_rules = rattle_rules
+        #: the exact order integral, the velocity derivative and the envelope-band fallback where the
+        #: healthy model stays in contact (Sec. 8.18): for a held reference baseline and its fit
+        self.reference_numerics = baseline is not None if reference_numerics is None else reference_numerics
         self.settings = settings or ResidualSettings()
         if baseline is not None:
             # against a held reference: located mesh events (REFERENCE_STEPS_PER_MESH) and the band
@@ -404,6 +408,7 @@ class Calibrator:
             if model_window
             else 0,
         )
+        self.runner.accel_from_velocity = self.reference_numerics
         cfg = self.runner.cfg
         _check_channels(measurement, cfg)
         observed = sorted(
@@ -1300,13 +1305,14 @@ class Calibrator:
         self._sig_checked: dict[tuple, bool] = {}
         self.base_raw = self._raw(())
         self.base_contact_loss = float(self.runner.last_contact_loss)
-        if not self.base_contact_loss <= EXACT_ORDERS_MAX_CONTACT_LOSS:
+        if not (self.reference_numerics and self.base_contact_loss <= EXACT_ORDERS_MAX_CONTACT_LOSS):
             # where the teeth separate the order features stay those of the linear resampling and
             # the accelerations the simulator's own (docs/calibration.md Sec. 8.18)
             self.cmp.set_exact_orders(False)
             self.cmp.band_fallback = False
-            self.runner.accel_from_velocity = False
-            self.base_raw = self._raw(())
+            if self.runner.accel_from_velocity:
+                self.runner.accel_from_velocity = False
+                self.base_raw = self._raw(())
         base_out = self.runner.outputs(self.base_raw)
         self.cmp.set_baseline(base_out)
         if self.runner.sensors is not None and any(housing_source(c) for c in self.runner.channels):
@@ -1962,7 +1968,6 @@ def synthetic_measurement(
 
     from gear_rotor_sim.blocks import SampleBlock
     from gear_rotor_sim.calibration.measurement import OperatingPoint, write_csv
-    from gear_rotor_sim.calibration.model_accel import MARGIN, differentiate, velocity_of
     from gear_rotor_sim.simulator import Simulator
 
     data_cfg = cfg.replace(
@@ -1975,32 +1980,17 @@ def synthetic_measurement(
         speed, temp = e.operating_point(speed, temp)
     if output_torque_nm is not None and data_cfg.load is not None:
         data_cfg = data_cfg.replace(load=dataclasses.replace(data_cfg.load, torque_nm=output_torque_nm))
-    # node accelerations as the derivative of the simulated velocities, as the calibration's model
-    # runs (model_accel.py): the two then share the numerics, and the data has no step-grid lines
-    vel = [velocity_of(c) for c in channels]
     sim = Simulator(
-        data_cfg,
-        speed,
-        temp,
-        sample_rate_hz,
-        [v or c for v, c in zip(vel, channels, strict=True)],
-        steps_per_mesh,
-        effects=tuple(effects),
+        data_cfg, speed, temp, sample_rate_hz, list(channels), steps_per_mesh, effects=tuple(effects)
     )
     i0 = round(warmup_s * sample_rate_hz)
     n = round(duration_s * sample_rate_hz)
-    block = sim.advance((i0 + n + MARGIN + 0.5) / sample_rate_hz)
-    raw = np.array(block.data[i0 - MARGIN : i0 + n + MARGIN], dtype=float)
-    for k, v in enumerate(vel):
-        if v:
-            raw[:, k] = differentiate(raw[:, k], sample_rate_hz)
-    data = raw[MARGIN : MARGIN + n].copy()
+    block = sim.advance((i0 + n + 0.5) / sample_rate_hz)
+    data = block.data[i0 : i0 + n].copy()
     add_direct_bearing_forces(data, list(channels), effects, data_cfg, temp, speed, sample_rate_hz, i0)
     rng = np.random.default_rng(seed)
     gains = 1.0 + gain_error * rng.choice([-1.0, 1.0], size=data.shape[1])
     data = data * gains + noise_rms * data.std(axis=0) * rng.standard_normal(data.shape)
-    # the derived channels carry the acceleration's unit (m/s -> m/s^2, rad/s -> rad/s^2)
-    units = tuple(u + "^2" if v else u for u, v in zip(block.units, vel, strict=True))
-    out = SampleBlock(i0 / sample_rate_hz, sample_rate_hz, tuple(channels), units, data)
+    out = SampleBlock(i0 / sample_rate_hz, sample_rate_hz, tuple(channels), block.units, data)
     op = OperatingPoint(speed_rpm, temperature_c, output_torque_nm)
     return write_csv(Path(path), out, op, gearbox)
