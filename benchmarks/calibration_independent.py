@@ -254,7 +254,7 @@ def collect(todo: list[Case], dirs: list[Path], baseline: bool) -> list[dict[str
     return rows
 
 
-def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str) -> str:
+def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str, skipped: bool = False) -> str:
     plain = [r for r in rows if not r.get("baseline")]
     text = "#### Without a baseline record\n\n" + table(plain) if plain else ""
     if baseline_ok:
@@ -263,7 +263,7 @@ def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str) -> str:
             f"\n#### With `--baseline` (healthy record at {BASELINE[0]:.0f} rpm; at "
             f"{BASELINE_ALT[0]:.0f} rpm for the {BASELINE[0]:.0f} rpm healthy record)\n\n" + table(based)
         )
-    else:
+    elif not skipped:
         text += "\n`--baseline`: not available in this `gear-rotor-sim calibrate`.\n"
     done = [r for r in rows if r["verdict"] != "not run"]
     walls = sorted(r["wall_s"] for r in done if r.get("wall_s") is not None)
@@ -308,7 +308,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.from_results:
         dirs = [Path(d) for d in args.from_results]
         rows = collect(todo, dirs, False) + (collect(todo, dirs, True) if baseline_ok else [])
-        text = render(rows, baseline_ok, f"results from {', '.join(map(str, dirs))}")
+        note = f"results from {', '.join(map(str, dirs))}"
+        text = render(rows, baseline_ok, note, skipped=args.no_baseline)
     else:
         t0 = time.perf_counter()
         load0 = os.getloadavg()[0]
@@ -345,7 +346,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
             f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
         )
-        text = render(rows, baseline_ok, note)
+        text = render(rows, baseline_ok, note, skipped=args.no_baseline)
     print(text)
     (out / "table.md").write_text(text)
     (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
