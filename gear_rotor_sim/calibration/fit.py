@@ -847,19 +847,22 @@ class Calibrator:
         gain = h.balanced_chi2 - score.balanced_chi2
         return gain - k * math.log(self.n_total), gain / max(h.balanced_chi2 - self.n_total, 1e-12)
 
+    def _path_note(self, e: Effect, at: str) -> None:
+        """Note the fitted transfer factors of ``e``'s path to the bearing channels (fault_path.py)."""
+        mask = self._path_mask(e)
+        if mask is None:
+            return
+        factors = ", ".join(
+            f"{n} {a:.2g}" for n, a, m in zip(self.cmp.names, self._path_a, mask, strict=True) if m
+        )
+        self.notes.append(
+            f"{e.label} at {at}: its response at these channels taken as the model's times a fitted "
+            f"transfer factor ({factors}; fault_path.py): its parameters are set by the other channels"
+        )
+
     def _tooth_notes(self, e: ToothDamage, at: str) -> None:
         """Notes on the nuisance factors of the last :meth:`_tooth_features` (path, scatter)."""
-        if self._path_mask(e) is not None:
-            self.notes.append(
-                f"{e.label} at {at}: its response at these channels taken as the model's times a fitted "
-                "transfer factor ("
-                + ", ".join(
-                    f"{n} {a:.2g}"
-                    for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(e), strict=True)
-                    if m
-                )
-                + "; fault_path.py): its parameters are set by the other channels"
-            )
+        self._path_note(e, at)
         if self._n_scatter:
             self.notes.append(
                 f"{e.label} at {at}: the revolution-to-revolution scatter of its response in the "
@@ -1191,17 +1194,7 @@ class Calibrator:
             fb = self._tooth_features(rb, eff, accepted)
         else:
             fb = self._full_features(rb, eff)
-            if self._path_mask(eff) is not None:
-                self.notes.append(
-                    f"{eff.label} at {main.name} {xb:.3g}: its response at these channels taken as the "
-                    "model's times a fitted transfer factor ("
-                    + ", ".join(
-                        f"{n} {a:.2g}"
-                        for n, a, m in zip(self.cmp.names, self._path_a, self._path_mask(eff), strict=True)
-                        if m
-                    )
-                    + "; fault_path.py): its parameters are set by the other channels"
-                )
+            self._path_note(eff, f"{main.name} {xb:.3g}")
         if isinstance(eff, ToothDamage) and ratio_depth_applies(self):
             # without a reference the mesh stiffness scale is not identified: the depth is read from
             # the scale-free sideband energy ratios of the named tooth (candidates_tooth.py)
