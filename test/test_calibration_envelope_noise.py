@@ -87,6 +87,7 @@ def _noise_comparison(x: np.ndarray, shaped: bool) -> Comparison:
     cmp.names, cmp.env_use, cmp.env_hi = ["bearing2_fy"], np.ones(1, dtype=bool), F_HI
     cmp.m = SimpleNamespace(issues=[])
     cmp.mesh_hz, cmp.shafts, cmp.shift_held, cmp.gains_held = 0.0, [], True, True
+    cmp.band_fallback = False
     cmp.set_baseline(np.zeros((x.size, 1)))
     return cmp
 

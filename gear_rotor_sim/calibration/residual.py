@@ -704,6 +704,9 @@ class Comparison:
         self.v_order: list[list[np.ndarray]] = []
         #: order coefficients by the exact per-revolution integral (order_dft.py); set_exact_orders
         self.exact_orders = True
+        #: envelope-band fallback of a line-less channel (``ResidualSettings.envelope_band_fallback``;
+        #: the calibrator turns it off where the healthy model's teeth separate)
+        self.band_fallback = self.s.envelope_band_fallback
         self._data_orders()
         # transfer-slope abscissa: log10 of the frequency over the mesh frequency, held at the edges of
         # the mesh-carrier band (harmonics 1..M) where the slope is fitted: a slope seen over half a
@@ -874,9 +877,7 @@ class Comparison:
             # 3000 rpm outer-race record, prominence 1.4-1.9 in every band against 115-147 on
             # bearing2_fy, drew 1.2-2.4 kHz at 64 steps per mesh period and 2.4-4.8 kHz at 32, and the
             # fitted force moved from 278 N to 194 N for 300)
-            for c, sc in (
-                scores.items() if getattr(self, "band_fallback", self.s.envelope_band_fallback) else ()
-            ):
+            for c, sc in scores.items() if self.band_fallback else ():
                 site = self.names[c].split("_")[0]  # bearing<k>: the channels at the same bearing
                 peers = {k: v for k, v in scores.items() if self.names[k].split("_")[0] == site}
                 best = max(peers, key=lambda k: peers[k])
