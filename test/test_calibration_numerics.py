@@ -89,9 +89,11 @@ def test_step_average_of_a_periodic_table_with_a_jump() -> None:
 
 def test_model_runs_in_contact_carry_no_step_grid_lines() -> None:
     """The calibration's model runs (64 steps per mesh period, located, accelerations from the
-    velocities) against the converged simulator at 1024 steps: the non-carrier pinion orders of
-    the pinion-node acceleration within 0.3 m/s^2 RMS, of the bearing force within 0.05 N (measured
-    0.155 and 0.013; at 32 steps with direct accelerations 3.6 m/s^2 and 0.68 N)."""
+    velocities) against the converged simulator at 1024 steps: the RMS error of the non-carrier
+    pinion orders, as a fraction of the RMS of the reference's mesh-order lines (the carriers they
+    sit between), below 1e-3 for the bearing force and 3e-3 for the pinion-node acceleration
+    (measured 1.8e-4 and 1.2e-3, i.e. 0.013 N and 0.155 m/s^2; at 32 steps with direct
+    accelerations 9.7e-3 and 2.8e-2)."""
     from gear_rotor_sim.calibration.measurement import OperatingPoint
     from gear_rotor_sim.calibration.residual import REFERENCE_STEPS_PER_MESH, ModelRunner
     from gear_rotor_sim.config import load_config
@@ -111,10 +113,12 @@ def test_model_runs_in_contact_carry_no_step_grid_lines() -> None:
     ref = np.asarray(sim.advance(0.15 + n / FS + 1e-3).data)[3000 : 3000 + n]
     orders = np.arange(1, 100)
     off = orders % 29 != 0
-    err = []
+    rel = []
     for c in range(2):
         a = order_coefficients(model[:, c], FS, 50.0, orders, 0.0)[0]
         b = order_coefficients(ref[:, c], FS, 50.0, orders, 0.0)[0]
-        err.append(float(np.sqrt(np.mean(np.abs(a - b)[off] ** 2))))
-    assert err[0] < 0.05  # N
-    assert err[1] < 0.3  # m/s^2
+        err = np.sqrt(np.mean(np.abs(a - b)[off] ** 2))
+        carriers = np.sqrt(np.mean(np.abs(b[~off]) ** 2))
+        rel.append(float(err / carriers))
+    assert rel[0] < 1e-3, rel  # bearing force
+    assert rel[1] < 3e-3, rel  # pinion-node acceleration
