@@ -16,6 +16,7 @@ Usage::
     python -m lumped_gearbox record --speed-rpm 8000 --temperature-c 25 --seed 35 --out out/h8000.csv
     python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12] [--corrected-envelope]
     python benchmarks/rattle_floor.py RECORD.csv --calibrate [--baseline REF.json] [--corrected-envelope]
+        [--orders 1 2 48 50]
 """
 
 from __future__ import annotations
@@ -70,9 +71,12 @@ def batch_ratio(y: np.ndarray, fs: float, shafts_hz: list[float], s: int, orders
     return vb / var, var
 
 
-def after_fit(record: Path, baseline: str | None, settings: ResidualSettings) -> int:
+def after_fit(
+    record: Path, baseline: str | None, settings: ResidualSettings, orders: tuple[int, ...] = (1, 2)
+) -> int:
     """Run ``Calibrator.run`` and print the residual before and after per family, channel and shaft, and
-    every channel's low orders 1-2 of the output shaft (a misalignment's axial line and 2x order)."""
+    every channel's ``orders`` of the output shaft (default 1-2: a misalignment's axial line and 2x
+    order; 48 and 50 are the paper gear's first mesh sidebands +-1)."""
     from gear_rotor_sim.calibration.baseline import load_reference
 
     m = load_measurement(record)
@@ -106,7 +110,9 @@ def after_fit(record: Path, baseline: str | None, settings: ResidualSettings) ->
                 per[f"{cmp.names[c]}/{sh.name}"] = round(float(chi.sum()))
                 if sh.name != cmp.shafts[-1].name:
                     continue
-                for o in (1, 2):
+                for o in orders:
+                    if not np.any(sh.orders == o):
+                        continue
                     k = int(np.flatnonzero(sh.orders == o)[0])
                     print(
                         f"  {cmp.names[c]:12s} {sh.name} order {o}: "
@@ -134,10 +140,17 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="the envelope's corrected noise model (ResidualSettings.envelope_noise_corrected)",
     )
+    ap.add_argument(
+        "--orders",
+        type=int,
+        nargs="+",
+        default=[1, 2],
+        help="output-shaft orders printed per channel with --calibrate (default 1 2)",
+    )
     args = ap.parse_args(argv)
     settings = ResidualSettings(envelope_noise_corrected=args.corrected_envelope)
     if args.calibrate:
-        return after_fit(Path(args.record), args.baseline, settings)
+        return after_fit(Path(args.record), args.baseline, settings, tuple(args.orders))
     m = load_measurement(Path(args.record))
     cal = Calibrator(m, settings=settings)
     cal._feat_correction = None

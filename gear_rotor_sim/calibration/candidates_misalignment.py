@@ -1,11 +1,14 @@
 """Fitting a gear's angular misalignment (``gear_misalignment``; docs/calibration.md Sec. 8.8).
 
 The effect (:class:`gear_rotor_sim.faults.GearMisalignment`) has two parts. The axial component of
-the mesh force, ``F0 angle cos(theta + phi)`` on both wheels, is quasi-static (the wheel's order 1,
-far below the axial modes), set by the static mesh force ``T / r_b`` and the tilt alone, and exactly
-linear in ``(angle cos phi, angle sin phi)``: it does not depend on the uncertain mesh stiffness or
-damping. The edge-loaded mesh (tangent stiffness ``1 / sqrt(rho)`` and a smaller centre approach,
-twice per revolution) appears only beyond ``rho = gamma b / (2 delta0) = 1`` and depends on the
+the mesh force, ``F(t) angle cos(theta + phi)`` on both wheels with ``F(t)`` the mesh force (the part
+synchronous with the tilted wheel, from a first run: ``model_misalignment.py``), is at the wheel's
+order 1 quasi-static (far below the axial modes) and set by the static mesh force ``T / r_b`` and the
+tilt alone; at the mesh harmonics of ``F`` it adds the sidebands ``m z +- 1``. It is exactly linear in
+``(angle cos phi, angle sin phi)`` (at the basis runs' tilt the mesh force does not depend on the
+tilt), and its order-1 line does not depend on the uncertain mesh stiffness or damping. The
+edge-loaded mesh (tangent stiffness ``1 / sqrt(rho)`` and a smaller centre approach, twice per
+revolution) appears only beyond ``rho = gamma b / (2 delta0) = 1`` and depends on the
 aligned approach ``delta0 = F0 / k``, i.e. on the mesh stiffness model (315 MN/m in this model's
 potential-energy TVMS, 423 MN/m by ISO 6336 in the independent lumped gearbox: ``rho`` differs by a
 third for the same tilt). So:

@@ -45,9 +45,11 @@ from gear_rotor_sim.calibration.features_envelope_noise import bin_sum_variance_
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.measurement import Measurement, OperatingPoint
 from gear_rotor_sim.calibration.model_accel import MARGIN, differentiate, velocity_of
+from gear_rotor_sim.calibration.model_misalignment import mesh_force_run
 from gear_rotor_sim.calibration.model_settle import grown_start_samples, run_settled, whole_period_samples
 from gear_rotor_sim.calibration.model_window import hunting_period_s
 from gear_rotor_sim.calibration.order_dft import revolution_coefficients
+from gear_rotor_sim.faults.misalignment_force import needs_mesh_force, with_mesh_force
 
 FAMILIES = ("order", "envelope", "static")
 
@@ -186,6 +188,9 @@ class ModelRunner:
     #: instead of starting from the static equilibrium with them (``candidates_wear_rattle.py``:
     #: worn teeth where the teeth separate stay on the healthy machine's rattle branch)
     grown_effects: tuple[type, ...] = ()
+    #: a misaligned gear's axial force from the instantaneous mesh force (one fixed-point pass through
+    #: a mesh-force run, ``model_misalignment.py``); False: the effects as given
+    instantaneous_misalignment: bool = True
 
     def __post_init__(self) -> None:
         cfg = self.cfg
@@ -241,6 +246,11 @@ class ModelRunner:
             fn = getattr(e, "operating_point", None)
             if fn is not None:
                 speed, temp = fn(speed, temp)
+        if self.instantaneous_misalignment and needs_mesh_force(effects):
+            # the axial force of a tilted wheel follows the mesh force (model_misalignment.py)
+            run = mesh_force_run(self, speed, cached_system(self.cfg, temp))
+            effects = with_mesh_force(self.cfg, effects, speed, self.sample_rate_hz, run)
+            grown = [e for e in effects if self.grown_effects and isinstance(e, self.grown_effects)]
         names = self.sim_channels()
         # accelerations as the derivative of the simulated velocities (model_accel.py): the window is
         # simulated MARGIN samples longer at each end for the differentiator
