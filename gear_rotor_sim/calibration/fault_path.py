@@ -36,6 +36,13 @@ a small tooth from reading the rattle's model-form comb at the node acceleration
 8000 rpm record against the held 2000 rpm reference a pinion tooth (28, depth 0.08) took 20 % of
 the excess that way while the DTE's comb got worse (docs/calibration.md Sec. 8.17).
 
+Seen there it must also be a tooth: the family rules of ``comb_families.py`` (a broad comb over the
+sideband families, the fundamental family with the others where the teeth separate) hold for the gain
+at these channels as for the gain over all channels (:func:`mesh_comb_gain_by_family`). On the
+independent worn 8000 rpm record against the 2000 rpm reference fitted at 64 steps per mesh a pinion
+tooth gained 234 at the DTE in sum but only in two families; its broad gain and its fundamental came
+from the node-5 accelerations (docs/calibration.md Sec. 8.21).
+
 Against a held reference baseline (``--baseline``) the rule applies as without one. The reference's
 bearing scales, identified by the lateral modes in contact, are linear properties of the shaft and
 bearings and bring the model's path much nearer the machine's (fitted factors on the independent
