@@ -9,7 +9,8 @@ tooth then read the node accelerations' rattle comb on the healthy record. Check
 
 - the path factor minimises the channel's chi^2 as it is scored (the tolerance depends on the model
   the factor makes), against an exhaustive search of the complex plane;
-- the gain of the comb at the channels at the mesh (DTE) against a hand computation;
+- the gain of the comb at the channels at the mesh (DTE) against a hand computation, in sum and per
+  sideband family, and the family rules applied to it (a tooth must be a broad comb at the mesh too);
 - on 1 s records of the independent lumped gearbox with that reference held: the healthy record claims
   no tooth, a damaged pinion tooth is named on its tooth within 25 % with the error halved.
 """
@@ -22,7 +23,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from gear_rotor_sim.calibration.fault_path import mesh_comb_gain, path_factors
+from gear_rotor_sim.calibration.comb_families import narrow_comb_reason
+from gear_rotor_sim.calibration.fault_path import mesh_comb_gain, mesh_comb_gain_by_family, path_factors
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
 from gear_rotor_sim.calibration.residual import ModelFeatures
@@ -112,6 +114,46 @@ def test_mesh_comb_gain_counts_the_dte_comb_only() -> None:
     assert mesh_comb_gain(cmp, model(1.0), model(2.0), 0) == pytest.approx(2.0 * 3.0 * comb, rel=1e-12)
     assert mesh_comb_gain(cmp, model(1.0), model(5.0), 0) == pytest.approx(0.0, abs=1e-9)
     assert mesh_comb_gain(cmp, model(2.0), model(1.0), 0) == pytest.approx(-2.0 * 3.0 * comb, rel=1e-12)
+
+
+def test_mesh_comb_gain_by_family_and_the_narrow_comb_rule() -> None:
+    """Per sideband family at the DTE, by hand: orders 1-6, 23-35 and 52-64 of a 29-tooth shaft (five
+    orders in each family j = 1..6: j, 29 -+ j, 58 -+ j), noise variance 1. A tooth's model puts 1.5 on
+    every comb order. Against a record with 3 on the families 3 and 4 only (two rattle components) it
+    gains 2 x (9 - 2.25) = 13.5 per order there and loses 2 x 2.25 = 4.5 per order elsewhere: +67.5 and
+    -22.5 per family, significant in two families (threshold 17): refused. Against a record with 3 on
+    every comb order it gains 67.5 in each family: a tooth. Against one with 3 on the families 2-6 only,
+    its fundamental family loses: refused where the teeth separate (the fundamental rule), accepted
+    where they do not (five families)."""
+    orders = np.array([*range(1, 7), *range(23, 36), *range(52, 65)])
+    fam = np.minimum(orders % 29, 29 - orders % 29)
+
+    def case(record_families: set[int]) -> dict[int, float]:
+        data = np.where(np.isin(fam, sorted(record_families)), 3.0, 0.0).astype(complex)
+        cmp, _ = _channel(orders, data, np.zeros(orders.size, complex), 1.0, 0.0)
+        cmp.shafts[0].teeth = 29
+
+        def model(x: float) -> ModelFeatures:
+            m = np.where(fam > 0, x, 0.0).astype(complex)
+            return ModelFeatures(
+                [[m], [np.zeros(orders.size, complex)]], [np.zeros(4, complex), np.zeros(4, complex)]
+            )
+
+        by_family = mesh_comb_gain_by_family(cmp, model(0.0), model(1.5), 0)
+        assert sum(by_family.values()) == pytest.approx(
+            mesh_comb_gain(cmp, model(0.0), model(1.5), 0), rel=1e-12
+        )
+        return by_family
+
+    two = case({3, 4})
+    assert two == pytest.approx({1: -22.5, 2: -22.5, 3: 67.5, 4: 67.5, 5: -22.5, 6: -22.5}, rel=1e-12)
+    assert "2 sideband families only" in narrow_comb_reason(two, 17.0, 0.02, 3, True)
+    broad = case({1, 2, 3, 4, 5, 6})
+    assert broad == pytest.approx(dict.fromkeys(range(1, 7), 67.5), rel=1e-12)
+    assert narrow_comb_reason(broad, 17.0, 0.02, 3, True) == ""
+    no_fundamental = case({2, 3, 4, 5, 6})
+    assert "first family" in narrow_comb_reason(no_fundamental, 17.0, 0.02, 3, True)
+    assert narrow_comb_reason(no_fundamental, 17.0, 0.02, 3, False) == ""
 
 
 @pytest.fixture(scope="module")

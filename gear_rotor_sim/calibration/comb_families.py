@@ -101,3 +101,32 @@ def fundamental_present(
     # a family left out of the features (a locked component, features_rattle.py) gains exactly 0
     others = [v for j, v in families.items() if j != FUNDAMENTAL_FAMILY and v != 0.0]
     return not others or families[FUNDAMENTAL_FAMILY] >= share * float(np.median(others))
+
+
+def narrow_comb_reason(
+    families: dict[int, float], floor: float, share: float, min_families: int, fundamental: bool
+) -> str:
+    """Why a comb gain per family is not a damaged tooth's (empty if it is): significant in fewer than
+    ``min_families`` families (:func:`significant_families` with ``floor`` and ``share``), or, with
+    ``fundamental`` (where the teeth separate), without its fundamental family
+    (:func:`fundamental_present`)."""
+    if not families:
+        return ""
+    sig = significant_families(families, floor, share)
+    if len(sig) < min_families:
+        shown = ", ".join(
+            f"m z +- {j}: {families[j]:.3g}" for j in sorted(families, key=lambda j: -families[j])
+        )
+        return (
+            f"its comb gain is significant in {len(sig)} sideband "
+            f"famil{'y' if len(sig) == 1 else 'ies'} only "
+            f"({shown}): components at one or two frequencies (a rattle subharmonic, a 1x eccentricity), "
+            "not the broad comb of a damaged tooth"
+        )
+    if fundamental and not fundamental_present(families, sig):
+        return (
+            f"its comb gain in the first family (order 1, m z +- 1) is "
+            f"{families.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
+            "of its other families: a once-per-revolution event raises its fundamental with its harmonics"
+        )
+    return ""

@@ -36,6 +36,13 @@ a small tooth from reading the rattle's model-form comb at the node acceleration
 8000 rpm record against the held 2000 rpm reference a pinion tooth (28, depth 0.08) took 20 % of
 the excess that way while the DTE's comb got worse (docs/calibration.md Sec. 8.17).
 
+Seen there it must also be a tooth: the family rules of ``comb_families.py`` (a broad comb over the
+sideband families, the fundamental family with the others where the teeth separate) hold for the gain
+at these channels as for the gain over all channels (:func:`mesh_comb_gain_by_family`). On the
+independent worn 8000 rpm record against the 2000 rpm reference fitted at 64 steps per mesh a pinion
+tooth gained 234 at the DTE in sum but only in two families; its broad gain and its fundamental came
+from the node-5 accelerations (docs/calibration.md Sec. 8.21).
+
 Against a held reference baseline (``--baseline``) the rule applies as without one. The reference's
 bearing scales, identified by the lateral modes in contact, are linear properties of the shaft and
 bearings and bring the model's path much nearer the machine's (fitted factors on the independent
@@ -56,6 +63,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize
 
+from gear_rotor_sim.calibration.comb_families import sideband_family
 from gear_rotor_sim.calibration.residual import ModelFeatures
 
 #: Largest transfer factor of a bearing channel relative to the model's path.
@@ -114,6 +122,26 @@ def channels_chi2(cmp: Any, feats: ModelFeatures, mask: np.ndarray) -> float:
     return out
 
 
+def mesh_comb_gain_by_order(
+    cmp: Any, before: ModelFeatures, after: ModelFeatures, shaft: int
+) -> np.ndarray | None:
+    """Order chi^2 gain from ``before`` to ``after`` per order of ``shaft`` at the channels that measure
+    the mesh (:func:`mesh_channels`; gains held at 1, no time shift; carriers and left-out features
+    gain 0). None if no such channel is measured."""
+    mask = mesh_channels(cmp.names)
+    if not mask.any():
+        return None
+    g = np.ones(cmp.nc)
+    out = np.zeros(cmp.shafts[shaft].orders.size)
+    k = ~cmp.carriers(shaft)
+    for c in np.flatnonzero(mask):
+        for f, sign in ((before, 1.0), (after, -1.0)):
+            m = cmp.order_gain(g, c, shaft) * f.order[c][shaft]
+            v = np.abs(cmp.d_order[c][shaft] - m) ** 2 / cmp.order_sigma2(c, shaft, m)
+            out += sign * 2.0 * np.where(k & np.isfinite(v), v, 0.0)
+    return out
+
+
 def mesh_comb_gain(cmp: Any, before: ModelFeatures, after: ModelFeatures, shaft: int) -> float:
     """Order chi^2 gain from ``before`` to ``after`` on the comb (non-carrier orders) of ``shaft`` at
     the channels that measure the mesh (:func:`mesh_channels`; gains held at 1, as where the path is
@@ -124,18 +152,29 @@ def mesh_comb_gain(cmp: Any, before: ModelFeatures, after: ModelFeatures, shaft:
     record against the held 2000 rpm reference a pinion tooth (tooth 28, depth 0.08) took 22 % of the
     excess from the node-5 accelerations' rattle comb while the DTE's comb on the pinion shaft got
     worse (415 -> 572; docs/calibration.md Sec. 8.17)."""
-    mask = mesh_channels(cmp.names)
-    if not mask.any():
-        return float("nan")
-    g = np.ones(cmp.nc)
-    out = 0.0
-    k = ~cmp.carriers(shaft)
-    for c in np.flatnonzero(mask):
-        for f, sign in ((before, 1.0), (after, -1.0)):
-            m = cmp.order_gain(g, c, shaft) * f.order[c][shaft]
-            v = np.abs(cmp.d_order[c][shaft] - m) ** 2 / cmp.order_sigma2(c, shaft, m)
-            out += sign * 2.0 * float(np.sum(v[k & np.isfinite(v)]))
-    return out
+    gain = mesh_comb_gain_by_order(cmp, before, after, shaft)
+    return float("nan") if gain is None else float(np.sum(gain))
+
+
+def mesh_comb_gain_by_family(
+    cmp: Any, before: ModelFeatures, after: ModelFeatures, shaft: int
+) -> dict[int, float]:
+    """:func:`mesh_comb_gain` per sideband family ``j`` of ``shaft`` (``comb_families.sideband_family``:
+    the low order ``j`` and ``m z +- j``); empty if no channel measures the mesh or the shaft carries
+    no gear.
+
+    Seen at the mesh, a damaged tooth is a broad comb as everywhere: the family rules of
+    ``comb_families.py`` hold at these channels too (``Calibrator._tooth_comb_check``). On the
+    independent worn 8000 rpm record (1 s, 20 um) against the 2000 rpm reference fitted at 64 steps
+    per mesh (mesh x1.21), a pinion tooth of depth 0.19 gained 234 at the DTE in sum, but per family
+    -153, -135, +283, +413, (5 left out), -174: two rattle components, not a tooth; its fundamental
+    family gained only at the node-5 accelerations (docs/calibration.md Sec. 8.21)."""
+    sh = cmp.shafts[shaft]
+    gain = mesh_comb_gain_by_order(cmp, before, after, shaft)
+    if gain is None or not sh.teeth:
+        return {}
+    fam = sideband_family(sh.orders, sh.teeth)
+    return {int(j): float(np.sum(gain[fam == j])) for j in np.unique(fam) if j > 0}
 
 
 def scale_channels(sig: ModelFeatures, a: np.ndarray) -> ModelFeatures:

@@ -59,18 +59,13 @@ from gear_rotor_sim.calibration.candidates_tooth import (
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
-from gear_rotor_sim.calibration.comb_families import (
-    FUNDAMENTAL_FAMILY,
-    FUNDAMENTAL_SHARE,
-    comb_gain_by_family,
-    fundamental_present,
-    significant_families,
-)
+from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
 from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_scatter
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
     mesh_channels,
     mesh_comb_gain,
+    mesh_comb_gain_by_family,
     path_factors,
     scale_channels,
     with_path,
@@ -972,30 +967,30 @@ class Calibrator:
                 ok = False
         if ok:
             # a damaged tooth raises the whole comb; one sideband family alone is a response component
-            # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py
+            # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py;
+            # where the teeth separate rattle components lock onto several shaft orders at once, so the
+            # fundamental family must gain with the others (docs/calibration.md Sec. 8.16)
             fams = comb_gain_by_family(self.cmp, (self._cur_feat, cur), (fit.feats, fit.score), own)
             thr = self.fit.bic_threshold + math.log(self.n_total)
-            sig = significant_families(fams, thr, self.fit.min_family_share)
+            at_rattle = bool(getattr(self, "_at_rattle", False))
             by_family = {j: round(v) for j, v in fams.items()}
             self.log(f"  {e.label}: comb gain by sideband family {by_family}")
-            if fams and len(sig) < self.fit.min_comb_families:
-                shown = ", ".join(f"m z +- {j}: {fams[j]:.3g}" for j in sorted(fams, key=lambda j: -fams[j]))
-                self.notes.append(
-                    f"{e.label}: not claimed, its comb gain is significant in {len(sig)} sideband "
-                    f"famil{'y' if len(sig) == 1 else 'ies'} only ({shown}): components at one or two "
-                    "frequencies (a rattle subharmonic, a 1x eccentricity), not the broad comb of a damaged "
-                    "tooth"
+            why = narrow_comb_reason(
+                fams, thr, self.fit.min_family_share, self.fit.min_comb_families, at_rattle
+            )
+            if not why and self._path_mask(e) is not None:
+                # where its path is fitted the tooth is named at the mesh, and seen there as a tooth:
+                # a broad comb with its fundamental, not the gain of two rattle components
+                # (fault_path.mesh_comb_gain_by_family; docs/calibration.md Sec. 8.21)
+                mfams = mesh_comb_gain_by_family(self.cmp, self._cur_feat, fit.feats, own)
+                self.log(f"  {e.label}: at the mesh (DTE) {dict((j, round(v)) for j, v in mfams.items())}")
+                why = narrow_comb_reason(
+                    mfams, thr, self.fit.min_family_share, self.fit.min_comb_families, at_rattle
                 )
-                ok = False
-            elif fams and getattr(self, "_at_rattle", False) and not fundamental_present(fams, sig):
-                # where the teeth separate rattle components lock onto several shaft orders at once,
-                # with or without a held reference baseline (docs/calibration.md Sec. 8.16)
-                self.notes.append(
-                    f"{e.label}: not claimed, its comb gain in the first family (order 1, m z +- 1) is "
-                    f"{fams.get(FUNDAMENTAL_FAMILY, 0.0):.3g}, less than {FUNDAMENTAL_SHARE:g} of the median "
-                    "of its other families: a once-per-revolution event raises its fundamental with its "
-                    "harmonics (comb_families.py)"
-                )
+                if why:
+                    why = "at the channels at the mesh (DTE), " + why
+            if why:
+                self.notes.append(f"{e.label}: not claimed, {why} (comb_families.py)")
                 ok = False
         # share of the comb's own excess it explains (its relative signature), used next to the
         # share of the whole excess: model-form misfit of the carriers must not mask a comb that
