@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.solver.alloc import retain_chunk_memory
 from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
 from gear_rotor_sim.solver.decimate import DeferredDecimator
 from gear_rotor_sim.solver.dt_rule import (
@@ -269,6 +270,7 @@ class Simulator:
         one_setting: bool = False,
     ) -> None:
         _check_speed(speed_rpm)
+        retain_chunk_memory()  # chunk arrays reuse heap pages (solver/alloc.py)
         cut_ok = modal_cutoff_hz is None or modal_cutoff_hz == "auto"
         if not cut_ok and isinstance(modal_cutoff_hz, int | float):
             cut_ok = bool(np.isfinite(modal_cutoff_hz) and modal_cutoff_hz > 0)
@@ -356,7 +358,7 @@ class Simulator:
         self._omega_q = -1.0
         self._activate(stepper, self._state, speed_rpm)
         init = np.concatenate([stepper.initial_outputs(self._state), [speed_rpm, temperature_c]])
-        self._dec = DeferredDecimator(self._k, init)
+        self._dec = DeferredDecimator(self._k, init, n_main=len(self.specs))
         self._n_out = 0
         self.last_chunk_stats: dict[str, float] = {}
 
@@ -789,14 +791,19 @@ class Simulator:
         speed = self._speed.value(t) * (2.0 * np.pi / 60.0)
         # angle anchored at the ramp start: the same values whatever the chunking
         angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
-        temp = self._temp.value(t[1:-1])
         self.locate_events = self._locate_now()
         self._stepper.locate_events = self.locate_events
         ch, _, _, _, states, _ = self._stepper.run(t, angle, speed, self._state)
         self._raw += n
         self._update_dt_rule(states)
-        # the channels, speed and temperature go side by side straight into the decimator's store
-        n_y = self._dec.push(ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp) + self._pending_n
+        # the channels, speed and temperature go side by side straight into the decimator's store; a
+        # set-point held over the whole chunk as one value (the decimator returns it exactly where it
+        # fills an output's window, without filtering it)
+        sp = self._speed
+        speed_col = sp.target if float(sp.value(t[1])) == sp.target else speed[1:-1] * 60.0 / (2.0 * np.pi)
+        tr = self._temp
+        temp_col = tr.target if float(tr.value(t[1])) == tr.target else tr.value(t[1:-1])
+        n_y = self._dec.push(ch, speed_col, temp_col) + self._pending_n
         self._pending_n = 0
         loss = back = 0
         if states.shape[1]:
