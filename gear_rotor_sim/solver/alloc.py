@@ -3,12 +3,14 @@ not mapped and faulted in afresh each time (docs/solver.md, "Session 10").
 
 A chunk at 20000 rpm holds about 32000 integration steps: its time, phase and output arrays are
 0.25-1 MB each. glibc serves allocations above ``M_MMAP_THRESHOLD`` (128 KiB at first, raised
-dynamically up to 32 MiB) by ``mmap`` and returns them by ``munmap``, and trims the heap top above
-``M_TRIM_THRESHOLD``; either way the next chunk's arrays start on fresh pages, each page one minor
-fault (the kernel zeroes it). Measured on the paper gearbox at 20000 rpm, DTE only: about 5000 minor
-faults and 5-6 ms of system CPU per simulated second (6 % of the run), none at 3000 rpm (chunks of
-6000 steps, arrays below the threshold). With the thresholds fixed above the chunk sizes the pages
-are reused: about 60 faults per simulated second.
+dynamically up to 32 MiB as mapped blocks are freed) by ``mmap`` and returns them by ``munmap``, and
+trims the heap top above ``M_TRIM_THRESHOLD``; which arrays land on fresh pages (one minor fault per
+page, zeroed by the kernel) then depends on the order of the allocations. Measured on the paper
+gearbox (CPU per simulated second): the 16 default channels at 7000-20000 rpm, 400-700 faults and
+2-3.4 ms system CPU; DTE only at 20000 rpm, none before session 10's decimator change and 5058
+faults (4-12 ms system CPU, about 6 % of the run) after it, from one 256 KiB array less per chunk
+(docs/solver.md, "Session 10"). With the thresholds fixed above the chunk sizes the freed pages are
+reused: 0-122 faults per simulated second in all these cases, and the same peak memory (274 MB).
 
 The setting is process-wide and lasts for the process: freed memory up to ``TRIM_THRESHOLD_BYTES``
 stays in the heap instead of going back to the system. Set ``GEAR_ROTOR_SIM_MALLOPT=off`` to leave
