@@ -12,7 +12,7 @@ statistics are taken over 0.3-0.5 s of the 20 kHz stream:
   bearing forces of the spur pair are constant, 0 at 25 C);
 * ``spec``: the worst such bearing-force channel's amplitude-spectrum distance (Welch, 1024 samples,
   0-8 kHz: ``sqrt(sum (sqrt(P) - sqrt(P_ref))^2 / sum P_ref)``, phase-free), in % of the reference's
-  fluctuating RMS;
+  content in that band;
 * ``wave``: the DTE sample by sample (RMS of the difference in % of the reference's fluctuating RMS).
 
 All errors in %, relative to the reference's value. The settings: ``rule`` (the default dt rule:
