@@ -55,7 +55,7 @@ because the machine is shared.
     regular step's cost per forced mode and per (forced mode x column). The per-step profile of the
     default against the full model and of the two-stage rig against the paper gearbox. Last,
     ``Simulator.advance`` at 20000 rpm (DTE only) split into the kernel's CPU and the rest, with the
-    minor page faults and system CPU per simulated second (solver/alloc.py).
+    minor page faults and system CPU per simulated second (newmark.ChunkBuffers).
 
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
@@ -671,7 +671,7 @@ def simulator_split(cfg: object, rpm: float, repeats: int, chunk_s: float = 0.1)
         "rest_ms_per_simulated_s": 1e3 * float(np.median(t - k)) / chunk_s,
         "rtf_cpu": chunk_s / float(np.median(t)),
         "steps_per_simulated_s": sim.last_chunk_stats["steps"] / chunk_s,
-        # pages mapped afresh (solver/alloc.py keeps freed chunk arrays in the heap) and system CPU
+        # pages mapped afresh (the simulator keeps its chunk arrays: newmark.ChunkBuffers), system CPU
         "minor_faults_per_simulated_s": (ru1.ru_minflt - ru0.ru_minflt) / sim_s,
         "system_cpu_ms_per_simulated_s": 1e3 * (ru1.ru_stime - ru0.ru_stime) / sim_s,
     }

@@ -26,7 +26,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
-from gear_rotor_sim.solver.alloc import retain_chunk_memory
 from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
 from gear_rotor_sim.solver.decimate import DeferredDecimator
 from gear_rotor_sim.solver.dt_rule import (
@@ -40,6 +39,7 @@ from gear_rotor_sim.solver.newmark import (
     MAX_STEPS_PER_MESH,
     MIN_STEPS_PER_MESH,
     SPEED_QUANTUM_REL,
+    ChunkBuffers,
     NewmarkStepper,
     SimulationDiverged,
     SolverState,
@@ -270,7 +270,6 @@ class Simulator:
         one_setting: bool = False,
     ) -> None:
         _check_speed(speed_rpm)
-        retain_chunk_memory()  # chunk arrays reuse heap pages (solver/alloc.py)
         cut_ok = modal_cutoff_hz is None or modal_cutoff_hz == "auto"
         if not cut_ok and isinstance(modal_cutoff_hz, int | float):
             cut_ok = bool(np.isfinite(modal_cutoff_hz) and modal_cutoff_hz > 0)
@@ -318,6 +317,7 @@ class Simulator:
         self.speed_ramp = float(speed_ramp_rpm_per_s)
         self.temperature_ramp = float(temperature_ramp_c_per_s)
         self._force_dense = force_dense
+        self._chunk_buffers = ChunkBuffers()  # per-chunk work arrays kept across chunks
         self.contact_loss_rate_hz = None if contact_loss_rate_hz is None else float(contact_loss_rate_hz)
         self._locate_opt = None if locate_events is None else bool(locate_events)
         if not isinstance(one_setting, bool | np.bool_):
@@ -474,6 +474,7 @@ class Simulator:
         )
         dense = self._force_dense
         stepper.basis_source = lambda omega: cached_eigen_basis(stepper.lin, omega, dense)
+        stepper.chunk_buffers = self._chunk_buffers  # one set for all steppers: one runs at a time
         return stepper
 
     def _speed_quantum(self, speed_rpm: float) -> float:
