@@ -54,7 +54,8 @@ because the machine is shared.
     sub-steps per step, the located part per sub-step, forced modes and active columns, and the
     regular step's cost per forced mode and per (forced mode x column). The per-step profile of the
     default against the full model and of the two-stage rig against the paper gearbox. Last,
-    ``Simulator.advance`` at 20000 rpm (DTE only) split into the kernel's CPU and the rest.
+    ``Simulator.advance`` at 20000 rpm (DTE only) split into the kernel's CPU and the rest, with the
+    minor page faults and system CPU per simulated second (newmark.ChunkBuffers).
 
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
@@ -68,6 +69,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import time
 from collections.abc import Callable, Sequence
 
@@ -649,6 +651,7 @@ def simulator_split(cfg: object, rpm: float, repeats: int, chunk_s: float = 0.1)
 
     total, kern = [], []
     gear_kernel.run_chunk_gear = timed_kernel
+    ru0 = resource.getrusage(resource.RUSAGE_SELF)
     try:
         for _ in range(2 * repeats + 1):
             acc[0] = 0.0
@@ -658,6 +661,8 @@ def simulator_split(cfg: object, rpm: float, repeats: int, chunk_s: float = 0.1)
             kern.append(acc[0])
     finally:
         gear_kernel.run_chunk_gear = orig
+    ru1 = resource.getrusage(resource.RUSAGE_SELF)
+    sim_s = (2 * repeats + 1) * chunk_s
     t, k = np.array(total), np.array(kern)
     return {
         "rpm": rpm,
@@ -666,6 +671,9 @@ def simulator_split(cfg: object, rpm: float, repeats: int, chunk_s: float = 0.1)
         "rest_ms_per_simulated_s": 1e3 * float(np.median(t - k)) / chunk_s,
         "rtf_cpu": chunk_s / float(np.median(t)),
         "steps_per_simulated_s": sim.last_chunk_stats["steps"] / chunk_s,
+        # pages mapped afresh (the simulator keeps its chunk arrays: newmark.ChunkBuffers), system CPU
+        "minor_faults_per_simulated_s": (ru1.ru_minflt - ru0.ru_minflt) / sim_s,
+        "system_cpu_ms_per_simulated_s": 1e3 * (ru1.ru_stime - ru0.ru_stime) / sim_s,
     }
 
 
@@ -692,7 +700,8 @@ def report_kernel(res: dict) -> None:
             f"  Simulator.advance at {sp['rpm']:.0f} rpm, DTE only: {sp['ms_per_simulated_s']:.1f} ms CPU "
             f"per simulated s (RTF {sp['rtf_cpu']:.2f}): kernel {sp['kernel_ms_per_simulated_s']:.1f}, "
             f"the rest {sp['rest_ms_per_simulated_s']:.1f} ({sp['steps_per_simulated_s']:.0f} steps per "
-            "simulated s)"
+            f"simulated s; {sp['minor_faults_per_simulated_s']:.0f} minor page faults and "
+            f"{sp['system_cpu_ms_per_simulated_s']:.1f} ms system CPU per simulated s)"
         )
 
 

@@ -39,6 +39,7 @@ from gear_rotor_sim.solver.newmark import (
     MAX_STEPS_PER_MESH,
     MIN_STEPS_PER_MESH,
     SPEED_QUANTUM_REL,
+    ChunkBuffers,
     NewmarkStepper,
     SimulationDiverged,
     SolverState,
@@ -316,6 +317,7 @@ class Simulator:
         self.speed_ramp = float(speed_ramp_rpm_per_s)
         self.temperature_ramp = float(temperature_ramp_c_per_s)
         self._force_dense = force_dense
+        self._chunk_buffers = ChunkBuffers()  # per-chunk work arrays kept across chunks
         self.contact_loss_rate_hz = None if contact_loss_rate_hz is None else float(contact_loss_rate_hz)
         self._locate_opt = None if locate_events is None else bool(locate_events)
         if not isinstance(one_setting, bool | np.bool_):
@@ -356,7 +358,7 @@ class Simulator:
         self._omega_q = -1.0
         self._activate(stepper, self._state, speed_rpm)
         init = np.concatenate([stepper.initial_outputs(self._state), [speed_rpm, temperature_c]])
-        self._dec = DeferredDecimator(self._k, init)
+        self._dec = DeferredDecimator(self._k, init, n_main=len(self.specs))
         self._n_out = 0
         self.last_chunk_stats: dict[str, float] = {}
 
@@ -472,6 +474,7 @@ class Simulator:
         )
         dense = self._force_dense
         stepper.basis_source = lambda omega: cached_eigen_basis(stepper.lin, omega, dense)
+        stepper.chunk_buffers = self._chunk_buffers  # one set for all steppers: one runs at a time
         return stepper
 
     def _speed_quantum(self, speed_rpm: float) -> float:
@@ -789,14 +792,19 @@ class Simulator:
         speed = self._speed.value(t) * (2.0 * np.pi / 60.0)
         # angle anchored at the ramp start: the same values whatever the chunking
         angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
-        temp = self._temp.value(t[1:-1])
         self.locate_events = self._locate_now()
         self._stepper.locate_events = self.locate_events
         ch, _, _, _, states, _ = self._stepper.run(t, angle, speed, self._state)
         self._raw += n
         self._update_dt_rule(states)
-        # the channels, speed and temperature go side by side straight into the decimator's store
-        n_y = self._dec.push(ch, speed[1:-1] * 60.0 / (2.0 * np.pi), temp) + self._pending_n
+        # the channels, speed and temperature go side by side straight into the decimator's store; a
+        # set-point held over the whole chunk as one value (the decimator returns it exactly where it
+        # fills an output's window, without filtering it)
+        sp = self._speed
+        speed_col = sp.target if float(sp.value(t[1])) == sp.target else speed[1:-1] * 60.0 / (2.0 * np.pi)
+        tr = self._temp
+        temp_col = tr.target if float(tr.value(t[1])) == tr.target else tr.value(t[1:-1])
+        n_y = self._dec.push(ch, speed_col, temp_col) + self._pending_n
         self._pending_n = 0
         loss = back = 0
         if states.shape[1]:

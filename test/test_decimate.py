@@ -243,3 +243,45 @@ def test_deferred_decimator_counts_at_once_and_takes_the_stream_outputs_later() 
     got.append(dd.take(dd.produced - dd.taken))
     assert np.array_equal(np.concatenate(got), np.concatenate(expected))
     assert dd.take(0).shape == (0, 3)
+
+
+def test_extra_columns_held_constant_come_out_exactly() -> None:
+    """With ``n_main`` the extra columns (the simulator's speed and temperature) held at one value over
+    an output's whole window give that value exactly; where one changes inside the window they are
+    filtered as any column (against the full-convolution reference); the main columns are unchanged.
+    Scalars and constant arrays are the same thing."""
+    rng = np.random.default_rng(11)
+    k, n = 16, 9000
+    h = design_taps(k)
+    d = (h.size - 1) // 2
+    main = rng.standard_normal((n, 2))
+    speed = np.full(n, 3000.0)
+    speed[4000:5000] = 3000.0 + 0.37 * np.arange(1000)  # a ramp, then held at its end value
+    speed[5000:] = speed[4999]
+    temp = np.full(n, 25.0)
+    init = np.array([0.0, 0.0, 3000.0, 25.0])
+    x = np.column_stack([main, speed, temp])
+    sizes = [1000, 3000, 500, 700, 800, 3000]
+    split = StreamDecimator(k, init, n_main=2)
+    out, i = [], 0
+    for s in sizes:  # held parts as floats, the ramp's chunk as arrays
+        sp = speed[i : i + s] if np.any(speed[i : i + s] != speed[i]) else float(speed[i])
+        out.append(split.push(main[i : i + s], sp, np.full(s, 25.0) if s == 700 else 25.0))
+        i += s
+    y = np.concatenate(out)
+    n_out = y.shape[0]
+    ref = _zero_phase_reference(x, init, h, k, n_out)
+    scale = np.max(np.abs(x), axis=0)
+    assert np.all(np.abs(y - ref) <= roundoff(1.0, h.size) * scale)
+    # outputs whose window (raw p - d .. p + d; raw index j is row j - 1) lies in a stretch pushed as
+    # one value (before the ramp's chunk, or from the first chunk after the one where it ends): exact
+    p = np.arange(n_out) * k
+    held = (p + d <= 4000) | (p - d > 5200)
+    assert np.count_nonzero(held) > n_out // 2
+    assert np.array_equal(y[held, 2], np.concatenate([[3000.0], speed])[p[held]])
+    assert np.all(y[:, 3] == 25.0)
+    assert not np.all(y[~held, 2] == np.round(y[~held, 2]))  # the ramp's windows were filtered
+    with pytest.raises(ValueError, match="n_main"):
+        StreamDecimator(k, init, n_main=5)
+    with pytest.raises(ValueError, match="first part"):
+        split.push(main[:10, :1], 1.0, 2.0, 3.0)

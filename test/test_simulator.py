@@ -100,6 +100,52 @@ def test_speed_ramp_has_no_discontinuity() -> None:
     assert np.max(np.abs(np.diff(ramp) - 1.0)) < 0.2
 
 
+def test_held_set_points_come_out_exactly() -> None:
+    """The speed and temperature columns are the set-points themselves wherever they were held over
+    the filter's window (not the filter's unit-DC-gain sum, within round-off of them); through a
+    speed ramp they follow the ramp (a symmetric FIR passes a linear ramp unchanged)."""
+    sim = Simulator(
+        None, 3000.0, 25.0, 20000.0, channels=["dte"], speed_ramp_rpm_per_s=20000.0, system_builder=_builder()
+    )
+    a = sim.advance(0.05)
+    assert np.all(a.speed_rpm == 3000.0) and np.all(a.temperature_c == 25.0)
+    sim.set_targets(speed_rpm=3100.0)  # a 5 ms ramp from the integration time
+    t_ramp = sim._speed.t0
+    b = sim.advance(0.2)
+    assert np.all(b.temperature_c == 25.0)
+    t = b.t0 + np.arange(b.n_samples) / b.sample_rate_hz
+    assert np.all(b.speed_rpm[t < t_ramp - 0.002] == 3000.0)
+    assert np.all(b.speed_rpm[t > t_ramp + 0.1] == 3100.0)
+    mid = (t > t_ramp + 0.002) & (t < t_ramp + 0.003)  # the filter's window inside the ramp
+    assert np.count_nonzero(mid) >= 19
+    assert np.max(np.abs(b.speed_rpm[mid] - (3000.0 + 20000.0 * (t[mid] - t_ramp)))) < 1e-9 * 3100.0
+
+
+def test_kept_chunk_arrays_give_the_same_stream_without_new_pages() -> None:
+    """The simulator's per-chunk work arrays are kept across chunks (``newmark.ChunkBuffers``): the
+    stream is bit for bit the one with arrays allocated per chunk, and at 20000 rpm (chunks of about
+    16000-32000 steps) the process maps almost no new pages (measured: 62 minor faults per
+    simulated second kept, 5058 allocated per chunk; docs/solver.md, "Session 10")."""
+    import resource
+
+    from gear_rotor_sim.examples import paper_gearbox
+
+    kept = Simulator(paper_gearbox(), 20000.0, 25.0, 20000.0, channels=["dte"])
+    fresh = Simulator(paper_gearbox(), 20000.0, 25.0, 20000.0, channels=["dte"])
+    fresh._chunk_buffers = None  # type: ignore[assignment]
+    for _, st in fresh._systems.values():
+        st.chunk_buffers = None
+    a = np.concatenate([kept.advance(0.1).data, kept.advance(0.1).data])
+    b = np.concatenate([fresh.advance(0.1).data, fresh.advance(0.1).data])
+    assert np.array_equal(a, b)
+    kept.advance(0.2)  # the decimator's store and the kept arrays reach the size of these chunks
+    f0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    kept.advance(0.2)
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
+    steps = 0.2 * 20000.0 * kept._k
+    assert faults < steps / 1000.0  # one new page per 1000 steps at most (allocated per chunk: 1 per 63)
+
+
 def test_quasi_static_start_stays_at_static_solution() -> None:
     sys_ = make_system(stiffness_amp=0.0, te_amplitude=0.0, half_backlash=3e-6, load_torque=40.0)
     sim = Simulator(

@@ -31,6 +31,8 @@ PASSBAND_FRACTION = 0.4  # of the output rate
 STOPBAND_FRACTION = 0.5  # of the output rate (the output Nyquist)
 
 _NO_EXTRA = np.zeros((0, 0))
+#: ``StreamDecimator._xfrom`` of an extra column that does not hold one value.
+_NOT_CONSTANT = np.iinfo(np.int64).max
 
 #: Output elements (samples x channels) per tile of :func:`fir_decimate_polyphase` (16 KiB of doubles;
 #: with the raw rows a tile reads it stays in the first- and second-level caches).
@@ -137,6 +139,23 @@ def _scatter(st: np.ndarray, first: int, main: np.ndarray, extra: np.ndarray) ->
             b += 1
 
 
+@njit(cache=True, nogil=True)
+def _fill(st: np.ndarray, first: int, n: int, values: np.ndarray) -> None:
+    """``st[r, b, :] = values`` for the raw indices ``b k + r = first .. first + n - 1``."""
+    k = st.shape[0]
+    m = values.shape[0]
+    b = first // k
+    r = first - b * k
+    for _ in range(n):
+        dst = st[r, b]
+        for c in range(m):
+            dst[c] = values[c]
+        r += 1
+        if r == k:
+            r = 0
+            b += 1
+
+
 def fir_decimate(buf: np.ndarray, h: np.ndarray, start: int, k: int, n_out: int) -> np.ndarray:
     """``y[i, c] = sum_m h[m] buf[start + i k - m, c]`` (rows outside ``buf`` count as 0).
 
@@ -168,17 +187,30 @@ class StreamDecimator:
     growing polyphase store (``_st[r, b, c]`` = raw ``(_blk0 + b) k + r``); :meth:`push` writes new
     samples into it once and moves the kept history to the front only when the store is full.
 
+    With ``n_main`` the columns from ``n_main`` on (the *extra* columns: the simulator's speed and
+    temperature) are held in a store of their own and tracked for being constant: an output whose
+    whole window (``2 delay + 1`` raw samples) holds one value in every extra column gets that value
+    exactly, without filtering them (a symmetric filter of unit DC gain returns a constant to within
+    round-off; docs/solver.md, "Session 10"). Where an extra column changes inside the window it is
+    filtered like the others.
+
     Parameters
     ----------
     k : int
         Decimation factor.
     initial : ndarray
         (nch,) value of every channel at raw index 0 and (constant) before it.
+    n_main : int, optional
+        Number of leading (always filtered) columns; None: all of them.
     """
 
-    def __init__(self, k: int, initial: np.ndarray) -> None:
+    def __init__(self, k: int, initial: np.ndarray, n_main: int | None = None) -> None:
         init = np.asarray(initial, float).reshape(-1)
         self.ncol = init.size
+        if n_main is not None and not (isinstance(n_main, int | np.integer) and 1 <= n_main <= self.ncol):
+            raise ValueError(f"n_main: {n_main!r} must be an integer in 1..{self.ncol} (the columns)")
+        self.nmain = self.ncol if n_main is None else int(n_main)
+        self.nx = self.ncol - self.nmain
         h = design_taps(int(k))
         delay = (h.size - 1) // 2
         self._reset(int(k), h, -delay, np.tile(init, (delay + 1, 1)), 0)
@@ -194,8 +226,21 @@ class StreamDecimator:
         self.next_p = next_p
         self._blk0 = b0 // k
         need = self._last // k - self._blk0 + 1
-        self._st = np.zeros((k, 2 * need + 8, self.ncol))
-        _scatter(self._st, b0 - self._blk0 * k, np.ascontiguousarray(raw, dtype=float), _NO_EXTRA)
+        raw = np.ascontiguousarray(raw, dtype=float)
+        self._st = np.zeros((k, 2 * need + 8, self.nmain))
+        self._sx = np.zeros((k, 2 * need + 8, self.nx))
+        first = b0 - self._blk0 * k
+        _scatter(self._st, first, np.ascontiguousarray(raw[:, : self.nmain]), _NO_EXTRA)
+        # extra columns: the value each holds from raw index ``_xfrom`` on (``_NOT_CONSTANT``: none)
+        self._xval = np.full(self.nx, np.nan)
+        self._xfrom = np.full(self.nx, _NOT_CONSTANT, dtype=np.int64)
+        if self.nx:
+            xs = np.ascontiguousarray(raw[:, self.nmain :].T)
+            _scatter(self._sx, first, np.zeros((raw.shape[0], 0)), xs)
+            for e in range(self.nx):
+                if np.all(xs[e] == xs[e, 0]):
+                    self._xval[e] = xs[e, 0]
+                    self._xfrom[e] = b0
 
     def _reserve(self, n: int) -> None:
         """Make room for raw samples up to ``last_raw + n``: compact (and grow) when needed."""
@@ -209,10 +254,14 @@ class StreamDecimator:
         need = (self._last + n) // k - first + 1
         if need <= cap:  # move the kept history to the front
             self._st[:, :used] = self._st[:, s : s + used].copy()
+            self._sx[:, :used] = self._sx[:, s : s + used].copy()
         else:  # grow to the push plus twice the history: later moves of the history stay amortised
-            st = np.zeros((k, need + used + 8, self.ncol))
+            st = np.zeros((k, need + used + 8, self.nmain))
             st[:, :used] = self._st[:, s : s + used]
             self._st = st
+            sx = np.zeros((k, need + used + 8, self.nx))
+            sx[:, :used] = self._sx[:, s : s + used]
+            self._sx = sx
         self._blk0 = first
 
     @property
@@ -226,9 +275,12 @@ class StreamDecimator:
         first = self.b0 // k
         nblk = self._last // k - first + 1
         s = first - self._blk0
-        rows = self._st[:, s : s + nblk].transpose(1, 0, 2).reshape(nblk * k, self.ncol)
         off = self.b0 - first * k
-        return rows[off : off + self._last - self.b0 + 1].copy()
+        parts = []
+        for st in (self._st, self._sx):
+            rows = st[:, s : s + nblk].transpose(1, 0, 2).reshape(nblk * k, st.shape[2])
+            parts.append(rows[off : off + self._last - self.b0 + 1])
+        return np.concatenate(parts, axis=1) if self.nx else parts[0].copy()
 
     # ------------------------------------------------------------------------------- streaming
     def push(self, *parts: np.ndarray | float) -> np.ndarray:
@@ -244,21 +296,49 @@ class StreamDecimator:
         main = np.asarray(parts[0], dtype=float)
         n = main.shape[0]
         main = main.reshape(n, 1) if main.ndim == 1 else main
-        rows: list[np.ndarray] = []
+        cols: list[np.ndarray | float] = []  # the later parts: (m, n) row blocks or floats
+        n_extra = 0
         for p in parts[1:]:
             a = np.asarray(p, dtype=float)
             if a.ndim == 0:
-                rows.append(np.full((1, n), float(a)))
+                cols.append(float(a))
+                n_extra += 1
             elif a.ndim <= 2 and a.shape[0] == n:
-                rows.append(a.reshape(1, n) if a.ndim == 1 else a.T)
+                cols.append(a.reshape(1, n) if a.ndim == 1 else a.T)
+                n_extra += cols[-1].shape[0]
             else:
                 raise ValueError(f"push: part of shape {a.shape} does not match {n} raw samples")
-        extra = np.concatenate(rows) if rows else _NO_EXTRA
-        if main.shape[1] + extra.shape[0] != self.ncol:
-            raise ValueError(f"push: {main.shape[1] + extra.shape[0]} columns given, {self.ncol} expected")
+        if main.shape[1] + n_extra != self.ncol:
+            raise ValueError(f"push: {main.shape[1] + n_extra} columns given, {self.ncol} expected")
+        if self.nx and main.shape[1] != self.nmain:
+            raise ValueError(f"push: the first part has {main.shape[1]} columns, n_main = {self.nmain}")
         if n:
             self._reserve(n)
-            _scatter(self._st, self._last + 1 - self._blk0 * self.k, main, extra)
+            at = self._last + 1 - self._blk0 * self.k
+            if self.nx and all(isinstance(c, float) for c in cols):  # set-points held: one value each
+                xv = np.array(cols)
+                _scatter(self._st, at, main, _NO_EXTRA)
+                _fill(self._sx, at, n, xv)
+                for e in range(self.nx):
+                    if xv[e] != self._xval[e] or self._xfrom[e] == _NOT_CONSTANT:
+                        self._xval[e] = xv[e]
+                        self._xfrom[e] = self._last + 1
+            else:
+                rows = [np.full((1, n), c) if isinstance(c, float) else c for c in cols]
+                extra = np.concatenate(rows) if rows else _NO_EXTRA
+                if self.nx:
+                    _scatter(self._st, at, main, _NO_EXTRA)
+                    _scatter(self._sx, at, np.empty((n, 0)), extra)
+                    for e in range(self.nx):  # is each extra column still one value?
+                        v = extra[e, 0]
+                        if not np.all(extra[e] == v):
+                            self._xval[e] = np.nan
+                            self._xfrom[e] = _NOT_CONSTANT
+                        elif v != self._xval[e] or self._xfrom[e] == _NOT_CONSTANT:
+                            self._xval[e] = v
+                            self._xfrom[e] = self._last + 1
+                else:
+                    _scatter(self._st, at, main, extra)
             self._last += n
         last_ok = self._last - self.delay
         if last_ok < self.next_p:
@@ -271,6 +351,22 @@ class StreamDecimator:
             y = self._st[0, b_start : b_start + n_out].copy()
         else:
             y = fir_decimate_polyphase(self._st, self.h, b_start, n_out)
+        if self.nx:  # extra columns: each its value from the first output whose window holds one
+            n_filt = [
+                n_out
+                if xf == _NOT_CONSTANT  # output i reads from raw next_p + i k - delay
+                else min(n_out, max(0, -(-(int(xf) + self.delay - self.next_p) // self.k)))
+                for xf in self._xfrom
+            ]
+            n_fir = max(n_filt)
+            yx = np.empty((n_out, self.nx))
+            if n_fir and self.k == 1:
+                yx[:n_fir] = self._sx[0, b_start : b_start + n_fir]
+            elif n_fir:
+                yx[:n_fir] = fir_decimate_polyphase(self._sx, self.h, b_start, n_fir)
+            for e, i0 in enumerate(n_filt):
+                yx[i0:, e] = self._xval[e]
+            y = np.concatenate([y, yx], axis=1)
         self.next_p = p_last + self.k
         keep_from = self.next_p - 2 * self.delay - self.k  # margin for a later regrid
         if keep_from > self.b0:
@@ -306,6 +402,7 @@ class StreamDecimator:
         self._last -= split_raw
         self.next_p -= split_raw
         self._blk0 -= split_raw // self.k
+        self._xfrom[self._xfrom != _NOT_CONSTANT] -= split_raw
 
 
 class DeferredDecimator:
@@ -329,10 +426,12 @@ class DeferredDecimator:
         Decimation factor.
     initial : ndarray
         (nch,) value of every channel at raw index 0 and (constant) before it.
+    n_main : int, optional
+        As :class:`StreamDecimator`.
     """
 
-    def __init__(self, k: int, initial: np.ndarray) -> None:
-        self._dec = StreamDecimator(k, initial)
+    def __init__(self, k: int, initial: np.ndarray, n_main: int | None = None) -> None:
+        self._dec = StreamDecimator(k, initial, n_main)
         self.ncol = self._dec.ncol
         self.k = self._dec.k
         self.delay = self._dec.delay

@@ -64,6 +64,30 @@ def aligned_zeros(shape: int | tuple[int, ...], dtype: type = np.float64) -> np.
     return buf[off : off + n * item].view(dtype).reshape(shape_t)
 
 
+class ChunkBuffers:
+    """Work arrays kept from one chunk to the next, grown when a chunk needs more rows.
+
+    :meth:`NewmarkStepper.run` takes its per-chunk arrays (phases, phase rates, the kernel's per-step
+    mesh outputs) from here when the stepper holds one (``stepper.chunk_buffers``, set by the
+    :class:`~gear_rotor_sim.simulator.Simulator`): then the arrays it returns, other than the
+    channels, are views valid until its next call. Without it every chunk allocates them afresh,
+    and glibc may map and fault them in anew each time (about 5000 minor page faults and 4-12 ms of
+    system CPU per simulated second at 20000 rpm; docs/solver.md, "Session 10").
+    """
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
+        """A C-contiguous array of ``shape`` (contents undefined), the first ``shape[0]`` rows of the
+        buffer ``name`` (re-made, with room to spare, when it is too small or of another layout)."""
+        a = self._arrays.get(name)
+        if a is None or a.shape[1:] != shape[1:] or a.dtype != dtype or a.shape[0] < shape[0]:
+            a = np.empty((max(shape[0], 1) + shape[0] // 4 + 64, *shape[1:]), dtype=dtype)
+            self._arrays[name] = a
+        return a[: shape[0]]
+
+
 def aligned(a: np.ndarray) -> np.ndarray:
     """64-byte aligned C-contiguous copy of ``a``."""
     out = aligned_zeros(a.shape, a.dtype.type)
@@ -1164,6 +1188,8 @@ class NewmarkStepper:
         self.n_substeps = 0
         self._hbuf = np.zeros((0, 0))
         self.beta_act = np.zeros(0)
+        #: per-chunk work arrays reused across calls of :meth:`run` (None: allocated per call)
+        self.chunk_buffers: ChunkBuffers | None = None
 
     # --- basis handling
     def basis(self, omega: float) -> Basis:
@@ -1381,9 +1407,19 @@ class NewmarkStepper:
             [m.pinion_teeth * abs(float(system.shaft_speed_ratios[m.pinion_shaft])) / (2.0 * np.pi)
              for m in system.meshes]
         )  # fmt: skip
-        cyc = angle[known, None] * cyc_rate[None, :]
-        phase = np.ascontiguousarray(cyc - np.floor(cyc))
-        prate = np.ascontiguousarray(speed[known, None] * cyc_rate[None, :])
+        bufs = self.chunk_buffers
+        if bufs is None:
+            cyc = angle[known, None] * cyc_rate[None, :]
+            phase = np.ascontiguousarray(cyc - np.floor(cyc))
+            prate = np.ascontiguousarray(speed[known, None] * cyc_rate[None, :])
+        else:  # the same arithmetic into the kept arrays
+            phase = bufs.get("phase", (n + 1, nm))
+            fl = bufs.get("floor", (n + 1, nm))
+            np.multiply(angle[known, None], cyc_rate[None, :], out=phase)
+            np.floor(phase, out=fl)
+            np.subtract(phase, fl, out=phase)
+            prate = bufs.get("prate", (n + 1, nm))
+            np.multiply(speed[known, None], cyc_rate[None, :], out=prate)
         none = np.zeros((0, nm))
         kfac = te = ted = none
         ampl_k = np.zeros((n + 1, lin.ne))
@@ -1397,14 +1433,14 @@ class NewmarkStepper:
         ampl_k = np.ascontiguousarray(ampl_k)
         all_in_gemm = gm.cstack.shape[1] == len(self.specs)
         out = np.empty((n, gm.cstack.shape[1]))  # every channel in order, or none (see gear_map)
-        dte = np.empty((n, nm))
-        dted = np.empty((n, nm))
-        fm = np.empty((n, nm))
-        states = np.empty((n, nm), dtype=np.int8)
-        kt = np.empty((n, nm))
-        et = np.empty((n, nm))
-        edt = np.empty((n, nm))
-        coef = np.empty((n, nm, lin.nb))
+        if bufs is None:
+            dte, dted, fm, kt, et, edt = (np.empty((n, nm)) for _ in range(6))
+            states = np.empty((n, nm), dtype=np.int8)
+            coef = np.empty((n, nm, lin.nb))
+        else:  # the channels (``out``) stay fresh: the decimator may hold them past this call
+            dte, dted, fm, kt, et, edt = (bufs.get(k, (n, nm)) for k in ("d", "dd", "f", "k", "e", "ed"))
+            states = bufs.get("states", (n, nm), np.int8)
+            coef = bufs.get("coef", (n, nm, lin.nb))
         if self._hbuf.shape[1] != gm.cstack.shape[0]:
             self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, gm.cstack.shape[0]))
         mcarry = np.ascontiguousarray(
