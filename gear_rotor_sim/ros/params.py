@@ -246,6 +246,13 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "with the mesh events located (RMS DTE within 0.5 %, docs/solver.md); 0 keeps steps_per_mesh.",
         (0.0, 2.0e7),
     ),
+    ParamSpec(
+        "event_average",
+        False,
+        "On an integration step holding a located mesh event, stream the end value shifted by what the "
+        "events change in the step's mean (Simulator(event_average=True)): removes the fold of the "
+        "mesh force's harmonics into the band at high speed (docs/solver.md, Session 10).",
+    ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
         "publish.bearings",
