@@ -139,6 +139,7 @@ def open_recorder(
     reliable = v["stream_qos.reliability"] == "reliable"
     offered = dict(qos_profile("reliable" if reliable else "sensor_data"))
     offered["depth"] = int(v["stream_qos.depth"])
+    offered["durability"] = v["stream_qos.durability"]
     from gear_rotor_sim.recording import schemas
     from gear_rotor_sim.recording.record_cli import latched_qos
 
