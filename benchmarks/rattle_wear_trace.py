@@ -102,6 +102,7 @@ def fe_run(
         output_rate_hz=fs,
         channels=["dte", "mesh_force"],
         effects=base,
+        event_average=False,  # as the calibration's model runs (ModelRunner)
     )
     period = hunting_period_s(cfg, speed)
     pre = period * max(1, math.ceil(0.2 / period))
