@@ -1969,7 +1969,14 @@ def synthetic_measurement(
     if output_torque_nm is not None and data_cfg.load is not None:
         data_cfg = data_cfg.replace(load=dataclasses.replace(data_cfg.load, torque_nm=output_torque_nm))
     sim = Simulator(
-        data_cfg, speed, temp, sample_rate_hz, list(channels), steps_per_mesh, effects=tuple(effects)
+        data_cfg,
+        speed,
+        temp,
+        sample_rate_hz,
+        list(channels),
+        steps_per_mesh,
+        effects=tuple(effects),
+        event_average=False,  # the self-test's records as its tables were measured
     )
     i0 = round(warmup_s * sample_rate_hz)
     n = round(duration_s * sample_rate_hz)

@@ -267,6 +267,7 @@ class ModelRunner:
             steps_per_mesh=self.steps_per_mesh,
             effects=tuple(e for e in effects if not any(e is g for g in grown)) if pre else tuple(effects),
             system_builder=cached_system,
+            event_average=False,  # the setting the calibration tables were measured with
         )
         i0 = round(self.start_time * self.sample_rate_hz)
         n = self.n_model

@@ -193,6 +193,7 @@ def simulate_mesh_force(
             channels=channels,
             steps_per_mesh=steps_per_mesh,
             effects=tuple(effects),  # type: ignore[arg-type]
+            event_average=False,  # as the calibration's model runs (residual.ModelRunner)
             **kwargs,
         )
         i0 = round(settle_s * output_rate_hz)

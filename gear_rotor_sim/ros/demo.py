@@ -200,14 +200,23 @@ class Probe:
         Subscribe reliably (matches only reliable publishers) or best effort.
     keep_data : bool
         Keep the sample arrays (else only the metadata of each chunk).
+    transient_local : bool
+        Ask for the history a ``stream_qos.durability: transient_local`` publisher keeps (a probe
+        that joins after the node started still gets the stream from its first chunk).
     """
 
-    def __init__(self, topics: Sequence[str] = STREAM_TOPICS, reliable: bool = True, keep_data: bool = True):
+    def __init__(
+        self,
+        topics: Sequence[str] = STREAM_TOPICS,
+        reliable: bool = True,
+        keep_data: bool = True,
+        transient_local: bool = False,
+    ):
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from gear_rotor_msgs.msg import ConditionIndicators, VibrationChunk
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
         from rosgraph_msgs.msg import Clock
         from std_msgs.msg import Float64
 
@@ -224,7 +233,9 @@ class Probe:
         if reliable:
             qos = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
         else:
-            qos = qos_profile_sensor_data
+            qos = QoSProfile(depth=qos_profile_sensor_data.depth, reliability=ReliabilityPolicy.BEST_EFFORT)
+        if transient_local:
+            qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
         for topic in topics:
             self.node.create_subscription(VibrationChunk, topic, self._chunk_cb(topic), qos)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._store("diagnostics"), 50)

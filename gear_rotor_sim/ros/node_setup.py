@@ -118,6 +118,7 @@ def build_model(v: dict[str, Any], streams: list[StreamSpec]) -> NodeModel:
             channels=list(dict.fromkeys(channels)),
             steps_per_mesh=int(v["steps_per_mesh"]),
             contact_loss_rate_hz=float(v["contact_loss_rate_hz"]) or None,
+            event_average=bool(v["event_average"]),
             speed_ramp_rpm_per_s=float(v["speed_ramp_rpm_per_s"]),
             temperature_ramp_c_per_s=float(v["temperature_ramp_c_per_s"]),
             effects=faults.effects(),
@@ -138,6 +139,7 @@ def open_recorder(
     reliable = v["stream_qos.reliability"] == "reliable"
     offered = dict(qos_profile("reliable" if reliable else "sensor_data"))
     offered["depth"] = int(v["stream_qos.depth"])
+    offered["durability"] = v["stream_qos.durability"]
     from gear_rotor_sim.recording import schemas
     from gear_rotor_sim.recording.record_cli import latched_qos
 

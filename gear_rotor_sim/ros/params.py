@@ -33,6 +33,7 @@ STREAM_NAMES: tuple[str, ...] = (
 DOF_CHOICES: tuple[str, ...] = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
 BEARING_TYPE_CHOICES: tuple[str, ...] = ("", "A#", "B#", "C#")
 RELIABILITY_CHOICES: tuple[str, ...] = ("best_effort", "reliable")
+DURABILITY_CHOICES: tuple[str, ...] = ("volatile", "transient_local")
 NOISE_FIELDS: tuple[str, ...] = ("mean", "stddev", "bias_mean", "bias_stddev")
 
 
@@ -246,6 +247,13 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "with the mesh events located (RMS DTE within 0.5 %, docs/solver.md); 0 keeps steps_per_mesh.",
         (0.0, 2.0e7),
     ),
+    ParamSpec(
+        "event_average",
+        True,
+        "On an integration step holding a located mesh event, stream the end value shifted by what the "
+        "events change in the step's mean (Simulator(event_average=True)): removes the fold of the "
+        "mesh force's harmonics into the band at high speed (docs/solver.md, Session 10).",
+    ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
         "publish.bearings",
@@ -313,6 +321,13 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         choices=RELIABILITY_CHOICES,
     ),
     ParamSpec("stream_qos.depth", 10, "QoS history depth (keep last) of the sample streams.", (1, 10000)),
+    ParamSpec(
+        "stream_qos.durability",
+        "volatile",
+        "QoS durability of the sample streams: volatile (sensor data), or transient_local (the last "
+        "stream_qos.depth chunks go to a subscriber that asks for them when it joins late).",
+        choices=DURABILITY_CHOICES,
+    ),
     ParamSpec("diagnostics_period_s", 1.0, "Wall-clock period of /diagnostics messages, s.", (0.05, 60.0)),
     ParamSpec(
         "foxglove_port",

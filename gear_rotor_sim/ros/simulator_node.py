@@ -99,22 +99,23 @@ DIAGNOSTICS_QOS = QoSProfile(
 EXIT_INVALID = 2
 
 
-def stream_qos(reliability: str, depth: int) -> QoSProfile:
-    """QoS of the sample streams: sensor data (best effort) by default, or reliable."""
+def stream_qos(reliability: str, depth: int, durability: str = "volatile") -> QoSProfile:
+    """QoS of the sample streams: sensor data (best effort) by default, or reliable; volatile by
+    default, or transient_local (a late-joining subscriber asking for it gets the last ``depth``)."""
+    keep = DurabilityPolicy.TRANSIENT_LOCAL if durability == "transient_local" else None
     if reliability == "reliable":
         return QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
             depth=depth,
             reliability=ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.VOLATILE,
+            durability=keep or DurabilityPolicy.VOLATILE,
         )
-    qos = QoSProfile(
+    return QoSProfile(
         history=qos_profile_sensor_data.history,
         depth=depth,
         reliability=qos_profile_sensor_data.reliability,
-        durability=qos_profile_sensor_data.durability,
+        durability=keep or qos_profile_sensor_data.durability,
     )
-    return qos
 
 
 class SimulatorNode(Node):
@@ -146,7 +147,11 @@ class SimulatorNode(Node):
         self._reanchor = True
         self._live: Any = None  # LiveServer when foxglove_port is set (docs/live.md)
 
-        qos = stream_qos(self._values["stream_qos.reliability"], int(self._values["stream_qos.depth"]))
+        qos = stream_qos(
+            self._values["stream_qos.reliability"],
+            int(self._values["stream_qos.depth"]),
+            self._values["stream_qos.durability"],
+        )
         self._stream_pubs = {
             s.name: self.create_publisher(VibrationChunk, s.topic, qos) for s in self._streams
         }

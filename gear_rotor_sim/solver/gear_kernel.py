@@ -524,7 +524,8 @@ def _event_step(
     is the exact modal propagator (``newmark.step_map(exact=True)``), and so are its sub-steps.
     Returns (status, failed solves, sub-steps).
     """
-    bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev
+    bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev[:11]
+    azr, azi, abeta, adf, avg_mode = ev[11:16]  # event_average: the step's averages
     zr, zi, rr, ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
     pq, pqn, _pq_static, rstat, _pd, _pv, mesh_par = mesh
     _phase, phase_rate, kfac, te_add, ted_add, ampl = exc
@@ -567,6 +568,17 @@ def _event_step(
         m = 2
     n_fail = 0
     n_sub = 0
+    amode = avg_mode[0]
+    if amode > 0:  # the step's averages over its committed sub-steps (event_average)
+        for j in range(nm):
+            adf[0, j] = 0.0
+            adf[1, j] = 0.0
+        if amode == 2:
+            for j in range(nmode):
+                azr[j] = 0.0
+                azi[j] = 0.0
+            for q in range(na):
+                abeta[q] = 0.0
     i = 0
     while i < m:
         ta = bnd[i]
@@ -795,6 +807,9 @@ def _event_step(
             beta_new[c] = mesh_par[j, 0] * d + mesh_par[j, 1] * dd - coef[j, 0] * force[j]
             for l in range(1, nb):
                 beta_new[c + l] = coef[j, l] * force[j]
+            if amode > 0:  # trapezoid of the sub-step: its start (right limits) and end (left limits)
+                adf[0, j] += 0.5 * w * (d_p[j] + d)
+                adf[1, j] += 0.5 * w * (f_p[j] + force[j])
             d_p[j] = d
             dd_p[j] = dd
             e_p[j] = ee[j]
@@ -804,6 +819,9 @@ def _event_step(
         for q in range(na):
             alpha[q] = beta_prev[q] + beta_new[q]
             beta_prev[q] = beta_new[q]
+        if amode == 2:
+            for q in range(na):
+                abeta[q] += 0.5 * w * alpha[q]
         for j in range(nmode):
             gr[j] = c0r[j]
             gi[j] = c0i[j]
@@ -813,11 +831,20 @@ def _event_step(
                 for j in range(nf):
                     gr[j] += swr[q, j] * aq
                     gi[j] += swi[q, j] * aq
-        for j in range(nmode):
-            xr = zr[j]
-            xi = zi[j]
-            zr[j] = rpr[j] * xr - rpi[j] * xi + rhr[j] * gr[j] - rhi[j] * gi[j]
-            zi[j] = rpr[j] * xi + rpi[j] * xr + rhr[j] * gi[j] + rhi[j] * gr[j]
+        if amode == 2:
+            for j in range(nmode):
+                xr = zr[j]
+                xi = zi[j]
+                zr[j] = rpr[j] * xr - rpi[j] * xi + rhr[j] * gr[j] - rhi[j] * gi[j]
+                zi[j] = rpr[j] * xi + rpi[j] * xr + rhr[j] * gi[j] + rhi[j] * gr[j]
+                azr[j] += 0.5 * w * (xr + zr[j])
+                azi[j] += 0.5 * w * (xi + zi[j])
+        else:
+            for j in range(nmode):
+                xr = zr[j]
+                xi = zi[j]
+                zr[j] = rpr[j] * xr - rpi[j] * xi + rhr[j] * gr[j] - rhi[j] * gi[j]
+                zi[j] = rpr[j] * xi + rpi[j] * xr + rhr[j] * gi[j] + rhi[j] * gr[j]
         n_sub += 1
         # --- right limits at the boundary
         for j in range(nm):
@@ -923,6 +950,7 @@ def run_chunk_gear(
     fuse: bool = True,
     expo: bool = False,
     mu_max: float = 1.0,
+    event_average: bool = False,
 ) -> tuple[int, int, int, int]:
     """Advance ``n = phase.shape[0] - 1`` steps of the modal map with ``nm >= 1`` table meshes.
 
@@ -943,6 +971,14 @@ def run_chunk_gear(
        rest only propagate) and the predictions ``Re((V Phi) r z)`` of the next step in one pass
        (mesh columns unrolled for one and two meshes);
     6. the outputs in blocks of ``hbuf.shape[0]`` steps by one matrix product (BLAS).
+
+    ``event_average``: on a step holding an event the channels are ``x_n + A_n - (x_{n-1} + x_n)/2``
+    instead of the end value ``x_n``, ``A_n`` their average over the step's committed sub-steps (each
+    linear between its start and end, as the trapezoidal rule takes it): the end value shifted by
+    what the events inside the step change in the step's mean, so that their times reach the output
+    (docs/solver.md, "Session 10", aliasing). Regular steps are unchanged. The mesh channels go to
+    ``outs[12]``, ``outs[13]`` (the per-step mesh arrays stay end values: the state), the others
+    through the output product's rows.
 
     A step holding an event is integrated by :func:`_event_step`: Newmark sub-steps split exactly
     at the jump phases (left limit of the tables at the end of one sub-step, right limit at the start
@@ -1020,7 +1056,14 @@ def run_chunk_gear(
     pha = np.zeros(nm)
     fev = np.zeros(nm)
     phv = np.zeros(nm)
-    ev = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fev, phv)
+    # event_average: 1 the mesh channels, 2 the output product's rows too
+    avg_mode = np.zeros(1, dtype=np.int64)
+    if event_average:
+        avg_mode[0] = 2 if outs[0].shape[1] > 0 else 1
+    # event_average: the step's averages (azr, azi, abeta, adf), then its start values
+    ev = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fev, phv, np.zeros(nmode), np.zeros(nmode),
+          np.zeros(na), np.zeros((2, nm)), avg_mode, np.zeros(nmode), np.zeros(nmode), np.zeros(na),
+          np.zeros((2, nm)))  # fmt: skip
     rp = (np.zeros(nmode), np.zeros(nmode), np.zeros(nmode), np.zeros(nmode))
     qs = np.zeros((2 * nm, na))
     qn = np.zeros((2 * nm, na))
@@ -1094,11 +1137,13 @@ def _run_loop(
     phase, phase_rate, kfac, te_add, ted_add, ampl = exc
     tab_kf, tab_cf, jflag, _tab_k, _tab_c, jump_p, _jump_k, _jump_c, n_jump = tables
     beta_prev, ypred, state, mcarry = carry
-    cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs
+    cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs[:12]
+    dte_ch, fm_ch = outs[12], outs[13]  # the mesh channels (event_average; else not written)
     beta_new, alpha, coef, kk, ee, ed, a1, b1, am, bm, cm, bst, new_state, trial, force, swork, srhs = wk
     zero, gr, gi, qa, qb_full, resp_full, mats, flat, te_sc = fz
     swr, swi, crr, cri = flat
-    bnd, bfe, bmesh, _bkind, _bdest, _allow, endfe, dph, pha, _fev, _phv = ev
+    bnd, bfe, bmesh, _bkind, _bdest, _allow, endfe, dph, pha, _fev, _phv = ev[:11]
+    azr, azi, abeta, adf, avg_mode, zsr, zsi, bs, dfs = ev[11:]  # event_average
     d_p, dd_p, e_p, ed_p, f_p, s_p = prev
     nsteps = phase.shape[0] - 1
     nm = phase.shape[1]
@@ -1149,8 +1194,10 @@ def _run_loop(
     n_buf = hbuf.shape[0]
     hb = 0
     o0 = 0
+    amode = avg_mode[0]
     for n in range(1, nsteps + 1):
         o = n - 1
+        ev_step = False
         # 1. events inside the step (table jumps of every mesh)
         nev = 0
         has_end = False
@@ -1468,6 +1515,17 @@ def _run_loop(
                     ypred[r] = sm
         else:
             # a step holding an event: Newmark sub-steps split there
+            ev_step = True
+            if amode > 0:
+                for i in range(nm):
+                    dfs[0, i] = d_p[i]
+                    dfs[1, i] = f_p[i]
+                if amode == 2:
+                    for j in range(nmode):
+                        zsr[j] = zr[j]
+                        zsi[j] = zi[j]
+                    for q in range(na):
+                        bs[q] = beta_prev[q]
             status, nfl, nsb = _event_step(
                 n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound,
                 expo, mu_max,
@@ -1497,12 +1555,26 @@ def _run_loop(
             edt_out[o, i] = ed[i]
             for j in range(nb):
                 coef_out[o, i, j] = coef[i, j]
+            if amode > 0:  # x_n + A_n - (x_{n-1} + x_n) / 2 on an event step
+                if ev_step:
+                    dte_ch[o, i] = adf[0, i] + 0.5 * (d_p[i] - dfs[0, i])
+                    fm_ch[o, i] = adf[1, i] + 0.5 * (f_p[i] - dfs[1, i])
+                else:
+                    dte_ch[o, i] = d_p[i]
+                    fm_ch[o, i] = f_p[i]
         if no > 0:
-            for j in range(nmode):
-                hbuf[hb, j] = zr[j]
-                hbuf[hb, nmode + j] = zi[j]
-            for q in range(na):
-                hbuf[hb, 2 * nmode + q] = beta_prev[q]
+            if amode == 2 and ev_step:
+                for j in range(nmode):
+                    hbuf[hb, j] = azr[j] + 0.5 * (zr[j] - zsr[j])
+                    hbuf[hb, nmode + j] = azi[j] + 0.5 * (zi[j] - zsi[j])
+                for q in range(na):
+                    hbuf[hb, 2 * nmode + q] = abeta[q] + 0.5 * (beta_prev[q] - bs[q])
+            else:
+                for j in range(nmode):
+                    hbuf[hb, j] = zr[j]
+                    hbuf[hb, nmode + j] = zi[j]
+                for q in range(na):
+                    hbuf[hb, 2 * nmode + q] = beta_prev[q]
             hb += 1
             if hb == n_buf or n == nsteps:
                 _emit_block(hbuf, hb, cstack, dfeed_static, out, o0)

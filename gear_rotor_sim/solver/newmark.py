@@ -1190,6 +1190,9 @@ class NewmarkStepper:
         self.beta_act = np.zeros(0)
         #: per-chunk work arrays reused across calls of :meth:`run` (None: allocated per call)
         self.chunk_buffers: ChunkBuffers | None = None
+        #: gear kernel: on a step holding an event the channels carry the events' times
+        #: (``gear_kernel.run_chunk_gear(event_average=True)``; docs/solver.md, "Session 10")
+        self.event_average = False
 
     # --- basis handling
     def basis(self, omega: float) -> Basis:
@@ -1441,11 +1444,17 @@ class NewmarkStepper:
             dte, dted, fm, kt, et, edt = (bufs.get(k, (n, nm)) for k in ("d", "dd", "f", "k", "e", "ed"))
             states = bufs.get("states", (n, nm), np.int8)
             coef = bufs.get("coef", (n, nm, lin.nb))
+        avg = bool(self.event_average)
+        # the mesh channels with event_average (fresh: they are the channels; else unused, empty)
+        dte_ch = np.empty((n, nm) if avg else (0, nm))
+        fm_ch = np.empty((n, nm) if avg else (0, nm))
         if self._hbuf.shape[1] != gm.cstack.shape[0]:
             self._hbuf = aligned_zeros((OUTPUT_BLOCK_STEPS, gm.cstack.shape[0]))
         mcarry = np.ascontiguousarray(
             np.array([st.delta, st.delta_dot, st.force], dtype=float).reshape(3, nm)
         )
+        outs = (gm.cstack, gm.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef)
+        outs += (dte_ch, fm_ch)
         status, step, nfail, nsub = gear_kernel.run_chunk_gear(
             (self.zr, self.zi, *gm.modal),
             gm.n_forced,
@@ -1453,18 +1462,22 @@ class NewmarkStepper:
             gm.tables,
             (phase, prate, kfac, te, ted, ampl_k),
             (self.beta_act, self.ypred, self.contact, mcarry),
-            (gm.cstack, gm.dfeed_static, self._hbuf, out, dte, dted, fm, states, kt, et, edt, coef),
+            outs,
             float(mp.dt),
             bool(self.locate_events),
             bound,
             self.fuse_meshes,
             mp.exact,
             EXACT_MAP_MU_MAX,
+            avg,
         )
         self.n_substeps += nsub
         self.n_mesh_fail += nfail
         _check_chunk_status(status, float(t[1 + step]), float(speed[1 + step]), system.temperature_c, bound)
-        ch = out if all_in_gemm else _mesh_channels(self.specs, dte, fm, single_mesh=False)
+        if all_in_gemm:
+            ch = out
+        else:
+            ch = _mesh_channels(self.specs, dte_ch if avg else dte, fm_ch if avg else fm, single_mesh=False)
         ampl = ampl_k[1:]
         if n:
             _carry_chunk_end(st, dte, dted, fm, coef, ampl, self.contact, float(angle[-2]), float(t[-2]))
