@@ -43,6 +43,7 @@ class Split:
     frac: tuple[float, float, float]  # drive, free, back
     means: tuple[float, float, float]  # DTE mean in each state
     h1: float  # amplitude at the mesh frequency
+    h2: float  # amplitude at twice the mesh frequency
     loss: float  # contact-loss fraction (free + back)
 
 
@@ -54,8 +55,10 @@ def split(label: str, dte: np.ndarray, force: np.ndarray, fs: float, f_mesh: flo
     frac = tuple(float(np.mean(s)) for s in states)
     means = tuple(float(np.mean(dte[s])) * 1e6 if np.any(s) else float("nan") for s in states)
     t = np.arange(dte.size) / fs
-    h1 = 2.0 * abs(np.mean((dte - dte.mean()) * np.exp(-2j * np.pi * f_mesh * t))) * 1e6
-    return Split(label, float(np.mean(dte)) * 1e6, frac, means, h1, frac[1] + frac[2])
+    h1, h2 = (
+        2.0 * abs(np.mean((dte - dte.mean()) * np.exp(-2j * np.pi * m * f_mesh * t))) * 1e6 for m in (1, 2)
+    )
+    return Split(label, float(np.mean(dte)) * 1e6, frac, means, h1, h2, frac[1] + frac[2])
 
 
 def lumped_run(speed: float, temp: float, h: float, duration: float, fs: float, start: float) -> Split:
@@ -99,6 +102,7 @@ def fe_run(
         output_rate_hz=fs,
         channels=["dte", "mesh_force"],
         effects=base,
+        event_average=False,  # as the calibration's model runs (ModelRunner)
     )
     period = hunting_period_s(cfg, speed)
     pre = period * max(1, math.ceil(0.2 / period))
@@ -115,7 +119,8 @@ def fe_run(
 def row(s: Split) -> str:
     f, m = s.frac, s.means
     return (
-        f"| {s.label} | {s.mean:.2f} | {s.h1:.1f} | {f[0]:.3f} / {f[1]:.3f} / {f[2]:.3f} | "
+        f"| {s.label} | {s.mean:.2f} | {s.h1:.1f} | {s.mean / s.h1:.4f} | {s.h2 / s.h1:.3f} | "
+        f"{f[0]:.3f} / {f[1]:.3f} / {f[2]:.3f} | "
         f"{m[0]:.1f} / {m[1]:.1f} / {m[2]:.1f} |"
     )
 
@@ -146,8 +151,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-lumped", action="store_true")
     p.add_argument("--no-profile", action="store_true", help="FE wear without the sliding profile")
     a = p.parse_args(argv)
-    print("| run | DTE mean (um) | H1 (um) | time share drive / free / back | DTE mean per state (um) |")
-    print("|---|---|---|---|---|")
+    print(
+        "| run | DTE mean (um) | H1 (um) | mean / H1 | H2 / H1 | time share drive / free / back "
+        "| DTE mean per state (um) |"
+    )
+    print("|---|---|---|---|---|---|---|")
     groups: list[list[Split]] = []
     if not a.no_lumped:
         g = [
