@@ -100,7 +100,8 @@ HEALTHY = [(1500.0, 25.0), (CONTACT[0], 75.0), MID, (6000.0, 150.0)]
 EXTRA: list[tuple[str, tuple[float, float], str]] = [
     ("mass_unbalance:node=5,unbalance_kg_m=1.8e-4,phase_rad=-2.0", CONTACT, "x0.6"),
 ]
-#: faults that the contract's six channels do not see (all on the pinion shaft: DTE, bearing 2, node 5):
+#: faults that the contract's six channels do not see (the DTE and sensors on the pinion shaft: bearing 2,
+#: node 5):
 #: judged like a healthy record, no effect may be claimed. A gear-shaft unbalance of 1.8e-4 kg m at
 #: 3000 rpm moves bearing 2's force by 1.7e-3 N at the gear's order 1 in the lumped model (1.3e-3 N in
 #: the FE model) against a noise standard deviation of 9.9 N (docs/calibration.md Sec. 8.22)

@@ -660,6 +660,10 @@ class ResidualSettings:
     #: envelope family: the gain of a radial bearing-force channel from its mean (equilibrium load),
     #: not from the mesh carriers (``features_bearing.static_sensor_gains``)
     envelope_static_gain: bool = True
+    #: order features far below the mesh band (each shaft's orders 1-6, under half the mesh
+    #: frequency) take the channel's sensor gain from its mean (radial bearing forces) or the nominal 1,
+    #: never the gain the mesh carriers set (their model-form misfit; docs/calibration.md Sec. 8.22)
+    shaft_order_static_gain: bool = True
     #: the envelope's corrected noise model (``features_envelope_noise``, docs/calibration.md Sec. 8.15):
     #: a floor shaped like white noise through the band-pass, and the 3-bin sum counted as 3 / 1.61
     #: independent bins. Off by default: measured on every row of the independent benchmark it costs the
@@ -742,6 +746,14 @@ class Comparison:
             np.clip(np.log10(sh.orders * sh.ratio * self.speed_hz / self.mesh_hz), 0.0, x_hi)
             if self.mesh_hz
             else np.zeros(sh.orders.size)
+            for sh in self.shafts
+        ]
+        #: order features below half the mesh frequency (each shaft's low orders): off the carriers'
+        #: transfer path, they take the sensor gain alone (``shaft_order_gain``)
+        self._low = [
+            (np.abs(sh.orders * sh.ratio) * self.speed_hz < 0.5 * self.mesh_hz)
+            if self.mesh_hz and settings.shaft_order_static_gain
+            else np.zeros(sh.orders.size, dtype=bool)
             for sh in self.shafts
         ]
         self._static_features(measurement)
@@ -1218,13 +1230,36 @@ class Comparison:
         a slope refitted per candidate would trade with the amplitude of a low- or high-order effect."""
         self.fixed_slopes = None if slopes is None else np.asarray(slopes, dtype=float).copy()
 
+    def shaft_order_gain(self, c: int) -> float:
+        """Gain of channel ``c`` at the order features far below the mesh band (``_low``).
+
+        The gain ``g0`` fitted on the order features is set by the mesh carriers, and on a model that
+        is a few percent off there the carriers' misfit is not a sensor's: on every 3000 rpm record of
+        the independent benchmark all gains sat at their 0.8 bound (the sensors' true gains 0.97-1.03),
+        and an order-1 effect fitted through them read ``1 / 0.8`` too large (gear eccentricity +24 %,
+        unbalance +22 %; docs/calibration.md Sec. 8.22). A shaft order tens of Hz to a few hundred Hz is
+        off the carriers' transfer path; what it shares with them is the sensor. So it takes the sensor
+        gain where the channel's mean identifies one (a radial bearing force: ``measured mean / model
+        mean`` of an equilibrium load, ``features_bearing.static_sensor_gains``), else the nominal 1 (a
+        calibrated sensor; an encoder angle difference has no gain). Held gains (the rattle rules) are 1.
+        """
+        if self.gains_held or not self.s.fit_gain:
+            return 1.0
+        gs = getattr(self, "envelope_gains", None)
+        if gs is not None and np.isfinite(gs[c]):
+            return float(gs[c])
+        return 1.0
+
     def order_gain(self, g: np.ndarray, c: int, s: int) -> np.ndarray | float:
         """Per-feature gain of channel ``c`` on shaft ``s``: ``g0 (1 + b x)``, ``x = log10(f / f_mesh)``
         held within the mesh-carrier band ``[0, log10 M]`` where ``b`` is fitted (the smooth transfer
-        correction; ``g`` is (nc,) or (nc, 2))."""
-        if g.ndim == 1:
-            return g[c]
-        return g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
+        correction; ``g`` is (nc,) or (nc, 2)); the shaft's low orders (below half the mesh frequency)
+        take ``shaft_order_gain`` (``ResidualSettings.shaft_order_static_gain``)."""
+        out = g[c] if g.ndim == 1 else g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
+        low = self._low[s]
+        if low.any():
+            out = np.where(low, self.shaft_order_gain(c), out)
+        return out
 
     def fit_gains(self, feats: ModelFeatures) -> np.ndarray:
         """Per-channel gain and transfer slope by weighted least squares on the order features.
@@ -1244,7 +1279,8 @@ class Comparison:
             rc = np.zeros(2)  # dominates and no library fault lives (eccentricity is order 1, ...)
             for s in range(len(self.shafts)):
                 m = feats.order[c][s]
-                w = 1.0 / self.order_sigma2(c, s, m)
+                # the low orders take the sensor gain (``shaft_order_gain``): not fitted here
+                w = np.where(self._low[s], 0.0, 1.0 / self.order_sigma2(c, s, m))
                 x = self._xf[s]
                 mm = w * np.abs(m) ** 2
                 dm = w * np.real(np.conj(m) * self.d_order[c][s])
