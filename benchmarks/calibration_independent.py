@@ -15,8 +15,8 @@ Usage::
 
 Prints a Markdown table (and writes ``table.md`` and ``results.json`` into ``--out``). Criteria per
 fault record: the injected effect is named first in ``effects`` (for tooth damage: on the right
-wheel); its main parameter within 25 %; ``error_after <= error_before / 2``. Healthy records: no entry
-in ``effects`` (baseline updates allowed).
+wheel and the right tooth); its main parameter within 25 %; ``error_after <= error_before / 2``.
+Healthy records: no entry in ``effects`` (baseline updates allowed).
 """
 
 from __future__ import annotations
@@ -165,8 +165,11 @@ def judge(case: Case, res: dict[str, Any]) -> dict[str, Any]:
     fault = parse_fault(case.fault)
     truth = getattr(fault, fault.main)
     named = first is not None and first.get("name") == fault.name
-    if named and fault.name == "tooth_damage":  # the right wheel too (label tooth_damage@<wheel>)
+    if named and fault.name == "tooth_damage":  # the right wheel and tooth too (label tooth_damage@<wheel>)
         named = str(first.get("label", "")).startswith(f"tooth_damage@{fault.wheel}")  # type: ignore[union-attr]
+        found_tooth = (first.get("parameters") or {}).get("tooth")
+        row["tooth"] = (found_tooth, fault.tooth)  # type: ignore[union-attr]
+        named = named and found_tooth is not None and int(found_tooth) == int(fault.tooth)  # type: ignore[union-attr]
     fitted = float(first.get("parameters", {}).get(fault.main, math.nan)) if named and first else math.nan
     rel = (fitted - truth) / truth if truth else math.nan
     row.update(param=fault.main, truth_value=truth, fitted=fitted, rel_error=rel)
@@ -223,6 +226,8 @@ def table(rows: list[dict[str, Any]]) -> str:
         if "param" in r:
             rel = _fmt(r["rel_error"], "+.0%")
             par = f"{r['param']}: {_fmt(r['fitted'])} / {_fmt(r['truth_value'])} ({rel})"
+            if r.get("tooth"):
+                par += f", tooth {_fmt(r['tooth'][0], '')} / {r['tooth'][1]}"
             marks = [c.get(k) for k in ("named first", "param within 25 %", "error halved")]
         else:
             par = "-"

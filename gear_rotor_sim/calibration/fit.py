@@ -404,6 +404,9 @@ class Calibrator:
             else 0,
         )
         self.runner.accel_from_velocity = self.reference_numerics
+        if self.reference_numerics and self.settings.reference_exact_map:
+            # no period error at the mesh-coupled modes (ResidualSettings.reference_exact_map, Sec. 8.21)
+            self.runner.exact_modal_map = True
         cfg = self.runner.cfg
         _check_channels(measurement, cfg)
         observed = sorted(
@@ -1298,8 +1301,9 @@ class Calibrator:
             # the accelerations the simulator's own (docs/calibration.md Sec. 8.18)
             self.cmp.set_exact_orders(False)
             self.cmp.band_fallback = False
-            if self.runner.accel_from_velocity:
+            if self.runner.accel_from_velocity or self.runner.exact_modal_map is not None:
                 self.runner.accel_from_velocity = False
+                self.runner.exact_modal_map = None
                 self.base_raw = self._raw(())
         base_out = self.runner.outputs(self.base_raw)
         self.cmp.set_baseline(base_out)
