@@ -173,8 +173,13 @@ def make(case: Held, out: Path, duration_s: float) -> Path:
 def _location_ok(fault: Any, eff: dict[str, Any]) -> bool:
     """The effect's label names the injected location (wheel for teeth, node, misaligned member)."""
     label = str(eff.get("label") or eff.get("name") or "")
-    if fault.name == "tooth_damage":
-        return label.startswith(f"tooth_damage@{fault.wheel}")
+    if fault.name == "tooth_damage":  # the wheel and the tooth (as calibration_independent.judge)
+        tooth = (eff.get("parameters") or {}).get("tooth")
+        return (
+            label.startswith(f"tooth_damage@{fault.wheel}")
+            and tooth is not None
+            and int(tooth) == fault.tooth
+        )
     if fault.name == "mass_unbalance":
         return label == f"mass_unbalance@node{fault.node}"
     if fault.name == "gear_misalignment":

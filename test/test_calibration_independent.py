@@ -29,12 +29,14 @@ def _res(effects, before=100.0, after=40.0):
 
 def test_fault_record_passes_only_when_named_first_close_and_halved():
     gear = "tooth_damage:wheel=gear,tooth=5,depth=0.4"
-    hit = {"name": "tooth_damage", "label": "tooth_damage@gear", "parameters": {"depth": 0.45}}
+    hit = {"name": "tooth_damage", "label": "tooth_damage@gear", "parameters": {"depth": 0.45, "tooth": 5}}
     row = bench.judge(_case(gear), _res([hit]))
     assert row["verdict"] == "PASS" and row["rel_error"] == pytest.approx(0.125)
     wrong_wheel = {**hit, "label": "tooth_damage@pinion"}
     assert bench.judge(_case(gear), _res([wrong_wheel]))["checks"]["named first"] is False
-    far = {**hit, "parameters": {"depth": 0.55}}  # +37.5 %
+    wrong_tooth = {**hit, "parameters": {"depth": 0.45, "tooth": 6}}
+    assert bench.judge(_case(gear), _res([wrong_tooth]))["checks"]["named first"] is False
+    far = {**hit, "parameters": {"depth": 0.55, "tooth": 5}}  # +37.5 %
     assert bench.judge(_case(gear), _res([far]))["checks"] == {
         "named first": True,
         "param within 25 %": False,
