@@ -1397,7 +1397,7 @@ class Calibrator:
             params[f"gain_{c}"] = float(g)
             params[f"transfer_slope_{c}"] = float(b)
         # the gain of each channel's low shaft orders (residual.Comparison.shaft_order_gain)
-        if any(low.any() for low in self.cmp.low_orders):
+        if any(low.any() for low in getattr(self.cmp, "_low", [])):
             for i, c in enumerate(self.cmp.names):
                 params[f"shaft_order_gain_{c}"] = self.cmp.shaft_order_gain(i)
         # the envelope family's gains where a channel's mean identifies its sensor (features_bearing)

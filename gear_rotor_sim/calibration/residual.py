@@ -748,12 +748,9 @@ class Comparison:
             else np.zeros(sh.orders.size)
             for sh in self.shafts
         ]
-        #: sensor gains of the radial bearing-force channels from their means (``_set_envelope_gains``;
-        #: None until the envelope features are built)
-        self.envelope_gains: np.ndarray | None = None
         #: order features below half the mesh frequency (each shaft's low orders): off the carriers'
         #: transfer path, they take the sensor gain alone (``shaft_order_gain``)
-        self.low_orders = [
+        self._low = [
             (np.abs(sh.orders * sh.ratio) * self.speed_hz < 0.5 * self.mesh_hz)
             if self.mesh_hz and settings.shaft_order_static_gain
             else np.zeros(sh.orders.size, dtype=bool)
@@ -971,7 +968,7 @@ class Comparison:
     def envelope_gain(self, c: int, g: np.ndarray) -> float:
         """Gain of channel ``c`` in the envelope family: its static sensor gain where the channel
         identifies one, else the order gain ``g[c]`` (1 without the order family)."""
-        gs = self.envelope_gains
+        gs = getattr(self, "envelope_gains", None)
         if gs is not None and np.isfinite(gs[c]):
             return float(gs[c])
         return float(g[c]) if "order" in self.families else 1.0
@@ -1234,7 +1231,7 @@ class Comparison:
         self.fixed_slopes = None if slopes is None else np.asarray(slopes, dtype=float).copy()
 
     def shaft_order_gain(self, c: int) -> float:
-        """Gain of channel ``c`` at the order features far below the mesh band (``low_orders``).
+        """Gain of channel ``c`` at the order features far below the mesh band (``_low``).
 
         The gain ``g0`` fitted on the order features is set by the mesh carriers, and on a model that
         is a few percent off there the carriers' misfit is not a sensor's: on every 3000 rpm record of
@@ -1248,7 +1245,7 @@ class Comparison:
         """
         if self.gains_held or not self.s.fit_gain:
             return 1.0
-        gs = self.envelope_gains
+        gs = getattr(self, "envelope_gains", None)
         if gs is not None and np.isfinite(gs[c]):
             return float(gs[c])
         return 1.0
@@ -1259,7 +1256,7 @@ class Comparison:
         correction; ``g`` is (nc,) or (nc, 2)); the shaft's low orders (below half the mesh frequency)
         take ``shaft_order_gain`` (``ResidualSettings.shaft_order_static_gain``)."""
         out = g[c] if g.ndim == 1 else g[c, 0] * (1.0 + g[c, 1] * self._xf[s])
-        low = self.low_orders[s]
+        low = self._low[s]
         if low.any():
             out = np.where(low, self.shaft_order_gain(c), out)
         return out
@@ -1283,7 +1280,7 @@ class Comparison:
             for s in range(len(self.shafts)):
                 m = feats.order[c][s]
                 # the low orders take the sensor gain (``shaft_order_gain``): not fitted here
-                w = np.where(self.low_orders[s], 0.0, 1.0 / self.order_sigma2(c, s, m))
+                w = np.where(self._low[s], 0.0, 1.0 / self.order_sigma2(c, s, m))
                 x = self._xf[s]
                 mm = w * np.abs(m) ** 2
                 dm = w * np.real(np.conj(m) * self.d_order[c][s])
