@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from gear_rotor_sim.blocks import SampleBlock
+from gear_rotor_sim.faults.misalignment_stream import MisalignmentStream
 from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
 from gear_rotor_sim.solver.decimate import DeferredDecimator
 from gear_rotor_sim.solver.dt_rule import (
@@ -319,6 +320,8 @@ class Simulator:
             if not rate > 0:  # also rejects NaN
                 raise ValueError(f"{name}: {rate!r} must be > 0 (inf for a jump)")
         self.effects = tuple(effects)
+        self._mis = MisalignmentStream()  # tilted wheels' axial force from the stream's mesh force
+        self._run_effects = self.effects  # the effects the steppers run (with the streamed ones)
         self.base_cfg = cfg
         cfg = _modified_config(cfg, self.effects)
         self.cfg = cfg
@@ -351,6 +354,7 @@ class Simulator:
         system = self._build(tq)
         names = list(channels) if channels is not None else self.default_channels(system)
         self.specs = parse_channels(system, names)
+        self._run_effects = self._mis.set_effects(self.effects, system)
         self._systems[tq] = (
             system,
             self._stepper_for(system),
@@ -358,7 +362,7 @@ class Simulator:
         self.channels = tuple(names)
         self.units = tuple(s.unit for s in self.specs)
         system, stepper = self._system(tq)
-        self._state: SolverState = static_equilibrium(system, self.effects)
+        self._state: SolverState = static_equilibrium(system, self._run_effects)
         self._speed = _Ramp(0.0, float(speed_rpm), float(speed_rpm), self.speed_ramp)
         self._angle0 = 0.0  # input-shaft angle at the start of the current speed ramp, rad
         self._temp = _Ramp(0.0, float(temperature_c), float(temperature_c), self.temperature_ramp)
@@ -460,7 +464,7 @@ class Simulator:
         if thermal is None or thermal.units is None:  # one stepper per quantum
             if tq == near_t:
                 return near, False
-            stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self.effects))
+            stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self._run_effects))
             stepper.basis_source = near.basis  # the same state matrix: the node's bases (and its cache)
             return stepper, False
         span = self._spans.get(near_t)
@@ -471,7 +475,7 @@ class Simulator:
             )
             lower = self._node(self._tq(below))[0] if self._tq(below) < near_t else None
             upper = self._node(self._tq(above))[0] if self._tq(above) > near_t else None
-            span = RampSpan((near_sys, near), lower, upper, thermal, self._stepper_for, self.effects)
+            span = RampSpan((near_sys, near), lower, upper, thermal, self._stepper_for, self._run_effects)
             self._spans[near_t] = span
             if len(self._spans) > 4:
                 self._spans.popitem(last=False)
@@ -484,7 +488,12 @@ class Simulator:
     def _stepper_for(self, system: AssembledSystem, lin: Any = None) -> NewmarkStepper:
         """A stepper whose eigenbases come from the disk cache (solver/basis_cache.py)."""
         stepper = NewmarkStepper(
-            system, self.specs, self.effects, self._force_dense, locate_events=self.locate_events, lin=lin
+            system,
+            self.specs,
+            self._run_effects,
+            self._force_dense,
+            locate_events=self.locate_events,
+            lin=lin,
         )
         dense = self._force_dense
         stepper.basis_source = lambda omega: cached_eigen_basis(stepper.lin, omega, dense)
@@ -644,6 +653,8 @@ class Simulator:
         effects = tuple(effects)
         cfg = _modified_config(self.base_cfg, effects)
         self.effects = effects
+        self._run_effects = self._mis.set_effects(effects, self._stepper.system)
+        effects = self._run_effects
         self.cfg = cfg
         self._systems.clear()
         self._spans.clear()
@@ -770,7 +781,7 @@ class Simulator:
         k = self._k
         end = self._raw + n
         end = -(-end // k) * k
-        if self.contact_loss_rate_hz is not None:  # and at the dt rule's next decision instant
+        if self.contact_loss_rate_hz is not None or self._mis.active:  # and at the next decision instant
             w = self._rule_window
             nxt = ((self._seg_out0 + self._raw // k) // w + 1) * w
             end = min(end, (nxt - self._seg_out0) * k)
@@ -809,9 +820,12 @@ class Simulator:
         angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
         self.locate_events = self._locate_now()
         self._stepper.locate_events = self.locate_events
-        ch, _, _, _, states, _ = self._stepper.run(t, angle, speed, self._state)
+        ch, _, _, fm, states, _ = self._stepper.run(t, angle, speed, self._state)
+        if self._mis.active:
+            self._mis.push(angle[1:-1], fm)
         self._raw += n
         self._update_dt_rule(states)
+        self._update_misalignment()
         # the channels, speed and temperature go side by side straight into the decimator's store; a
         # set-point held over the whole chunk as one value (the decimator returns it exactly where it
         # fills an output's window, without filtering it)
@@ -838,6 +852,25 @@ class Simulator:
         self._loss_mode = self._separated or self.one_setting
         self._separated = False
         self.locate_events = self._locate_now()
+
+    def _update_misalignment(self) -> None:
+        """At the fixed update instants (every ``DT_RULE_WINDOW_S`` on the output grid), the tilted
+        wheels' mesh-force orders from the running synchronous average of the stream's mesh force
+        (faults/misalignment_stream.py)."""
+        if not self._mis.active:
+            return
+        if self._raw % self._k or (self._seg_out0 + self._raw // self._k) % self._rule_window:
+            return
+        self._mis.update(self.speed_rpm, self.output_rate_hz, self._rule_window / self.output_rate_hz)
+
+    @property
+    def mesh_force_orders(self) -> dict[str, tuple[complex, ...]]:
+        """Order coefficients of the mesh force (N) each tilted gear misalignment of the effects uses
+        now, by the effect's label: the running synchronous average of the stream's own mesh force
+        over the tilted wheel's revolution (faults/misalignment_stream.py); empty: the static mesh
+        force ``F0`` (before the first update, 0.1 s). Effects given with ``mesh_force_orders`` keep
+        theirs and are not listed."""
+        return self._mis.orders()
 
     def _maybe_regrid(self) -> None:
         if self._raw % self._k:
