@@ -8,9 +8,10 @@ them from a first run (``with_mesh_force``). A stream cannot run twice; the :cla
 running synchronous average of its own mesh force instead:
 
 * every integration step's mesh force is binned by the tilted wheel's angle (``STREAM_BINS`` bins
-  over a revolution, each sample shared linearly between its two neighbouring bin centres);
+  over a revolution, each step shared linearly between its two neighbouring bin centres; compiled,
+  ``solver/sync_average.py``);
 * at fixed instants of the output grid (every ``DT_RULE_WINDOW_S``, 0.1 s, whatever the chunking:
-  the samples of the interval are binned at its end, so the stream does not depend on how
+  the steps are binned one at a time in their order, so the stream does not depend on how
   ``advance`` is called) the bin means give the orders ``0 .. K`` (a real FFT, the binning's
   ``sinc^2`` transfer divided out; ``K`` the orders inside the output's passband,
   ``misalignment_force.max_wheel_order``, at most ``STREAM_BINS / 8``), which replace the effect's
@@ -43,6 +44,7 @@ import numpy as np
 from gear_rotor_sim.faults.gear import GearMisalignment
 from gear_rotor_sim.faults.misalignment_force import PASSBAND_FRACTION
 from gear_rotor_sim.faults.timed import TimedEffect
+from gear_rotor_sim.solver.sync_average import bin_linear
 
 #: bins of the synchronous average over one revolution of the tilted wheel
 STREAM_BINS = 4096
@@ -149,35 +151,33 @@ class SynchronousMeshForce:
         self.ratio = float(ratio)
         self.sums = np.zeros(STREAM_BINS)
         self.weights = np.zeros(STREAM_BINS)
-        self._angles: list[np.ndarray] = []
-        self._forces: list[np.ndarray] = []
+        self._win_sums = np.zeros(STREAM_BINS)  # the steps since the last update
+        self._win_weights = np.zeros(STREAM_BINS)
+        self._win_steps = 0
         self.orders: np.ndarray | None = None  # the last update's coefficients
 
     def push(self, input_angle: np.ndarray, mesh_force: np.ndarray) -> None:
-        """Keep a chunk's steps: input-shaft angles (rad, n) and mesh forces (N, (n, n_meshes))."""
-        self._angles.append(np.asarray(input_angle, dtype=float) * self.ratio)
-        self._forces.append(np.array(mesh_force[:, self.mesh], dtype=float))
+        """Bin a chunk's steps: input-shaft angles (rad, n) and mesh forces (N, (n, n_meshes)),
+        into the current update interval's bins (``solver/sync_average.py``)."""
+        angle = np.ascontiguousarray(input_angle, dtype=float)
+        force = np.ascontiguousarray(mesh_force, dtype=float)
+        scale = self.ratio * STREAM_BINS / (2.0 * np.pi)
+        bin_linear(angle, force, self.mesh, scale, self._win_sums, self._win_weights)
+        self._win_steps += angle.size
 
     def update(self, wheel_hz: float, output_rate_hz: float, interval_s: float) -> np.ndarray | None:
-        """Bin the steps kept since the last update, return the orders ``0 .. K`` of the running
-        average (None while no step was binned) and age the bins by ``interval_s``.
+        """Add the interval's bins to the running average, return its orders ``0 .. K`` (None while
+        no step was binned) and age the bins by ``interval_s``.
 
         ``K``: the orders of a shaft at ``|wheel_hz|`` below ``PASSBAND_FRACTION`` of the output rate
         (all ``STREAM_MAX_ORDER`` at standstill), at most ``STREAM_MAX_ORDER``.
         """
-        if self._angles:
-            theta = np.concatenate(self._angles)
-            force = np.concatenate(self._forces)
-            self._angles.clear()
-            self._forces.clear()
-            x = np.mod(theta, 2.0 * np.pi) * (STREAM_BINS / (2.0 * np.pi))
-            b0 = np.minimum(np.floor(x).astype(np.int64), STREAM_BINS - 1)
-            f = x - b0
-            b1 = (b0 + 1) % STREAM_BINS
-            self.sums += np.bincount(b0, (1.0 - f) * force, STREAM_BINS)
-            self.sums += np.bincount(b1, f * force, STREAM_BINS)
-            self.weights += np.bincount(b0, 1.0 - f, STREAM_BINS)
-            self.weights += np.bincount(b1, f, STREAM_BINS)
+        if self._win_steps:
+            self.sums += self._win_sums
+            self.weights += self._win_weights
+            self._win_sums[:] = 0.0
+            self._win_weights[:] = 0.0
+            self._win_steps = 0
         filled = self.weights > 0
         if not filled.any():
             return None
@@ -191,6 +191,7 @@ class SynchronousMeshForce:
         else:
             kmax = math.floor(PASSBAND_FRACTION * output_rate_hz / abs(wheel_hz))
         k = np.arange(kmax + 1)
+        # the bins' kernel (a triangle of two bins, centred on the bin) has the transfer sinc^2(k / bins)
         coef = np.fft.rfft(means)[: kmax + 1] / STREAM_BINS / np.sinc(k / STREAM_BINS) ** 2
         coef[0] = coef[0].real
         self.orders = coef
