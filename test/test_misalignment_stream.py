@@ -179,3 +179,21 @@ def test_ramp_stays_finite_and_converges(cfg):
     assert abs(got[0] - cal[0]) <= 1e-3 * f0
     for m in (1, 2, 3):
         assert abs(got[49 * m] - cal[49 * m]) <= 0.02 * abs(cal[49 * m]), m
+
+
+def test_static_force_until_the_first_update_and_without_the_stream(cfg):
+    """Until the first update (0.1 s) the streamed effect is the static law ``F0`` (bit for bit the run
+    with ``streamed_misalignment=False``, the calibration's setting); from it on the axial force
+    follows the mesh force."""
+    e = GearMisalignment(angle_rad=ANGLE, phase_rad=PHASE)
+    kw = dict(channels=GEAR_SHAFT_FZ, effects=(e,))
+    on = Simulator(cfg, 3000.0, 25.0, FS, **kw).advance(0.3).data
+    off_sim = Simulator(cfg, 3000.0, 25.0, FS, streamed_misalignment=False, **kw)
+    off = off_sim.advance(0.3).data
+    assert off_sim.mesh_force_orders == {}
+    first = round(0.1 * FS) - 30  # the decimation filter's half length before the update's effect
+    np.testing.assert_array_equal(on[:first], off[:first])
+    scale = np.abs(off).max()
+    assert np.abs(on[round(0.15 * FS) :] - off[round(0.15 * FS) :]).max() > 1e-3 * scale
+    with pytest.raises(ValueError, match="streamed_misalignment"):
+        Simulator(cfg, 3000.0, 25.0, FS, streamed_misalignment=1)  # type: ignore[arg-type]

@@ -204,13 +204,16 @@ class SynchronousMeshForce:
 class MisalignmentStream:
     """The simulator's side: the proxies of its effects and one running average per tilted wheel."""
 
-    def __init__(self) -> None:
+    def __init__(self, enabled: bool = True) -> None:
+        self.enabled = enabled  # False: the effects run as given (Simulator(streamed_misalignment=False))
         self.proxies: list[StreamedMisalignment] = []
         self.averages: dict[tuple[int, str], SynchronousMeshForce] = {}
 
     def set_effects(self, effects: Sequence[object], system: Any) -> tuple[object, ...]:
         """The effects to run (see :func:`streamed_effects`); the running averages of wheels still
         tilted are kept and their last orders apply at once, the others dropped."""
+        if not self.enabled:
+            return tuple(effects)
         run, proxies = streamed_effects(effects)
         self.proxies = proxies
         keep: dict[tuple[int, str], SynchronousMeshForce] = {}

@@ -1193,6 +1193,9 @@ class NewmarkStepper:
         #: gear kernel: on a step holding an event the channels carry the events' times
         #: (``gear_kernel.run_chunk_gear(event_average=True)``; docs/solver.md, "Session 10")
         self.event_average = False
+        #: a step whose only events are table jumps taken whole with the tables' step average
+        #: (``gear_kernel.run_chunk_gear(average_jumps=True)``; docs/solver.md, "Session 11")
+        self.average_jumps = False
 
     # --- basis handling
     def basis(self, omega: float) -> Basis:
@@ -1470,6 +1473,7 @@ class NewmarkStepper:
             mp.exact,
             EXACT_MAP_MU_MAX,
             avg,
+            bool(self.average_jumps),
         )
         self.n_substeps += nsub
         self.n_mesh_fail += nfail
