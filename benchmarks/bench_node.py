@@ -58,11 +58,11 @@ def _sim_args(
     faults: Path | None = None,
 ) -> list[str]:
     return [
-        *(["-p", f"faults_file:={faults}"] if faults else []),
         "--ros-args",
         "--params-file",
         str(share_file("config/simulator_node.yaml", env)),
         *(["-p", f"model:={model}"] if model else []),
+        *(["-p", f"faults_file:={faults}"] if faults else []),
         "-p",
         f"speed_rpm:={speed}",
         "-p",
@@ -94,11 +94,15 @@ THREADS = {"gear_rotor_step": "stepping", "gear_rotor_out": "output"}
 
 
 def thread_cpu_s(pid: int) -> dict[str, float]:
-    """CPU seconds (user + system) of the node's named threads, from ``/proc/<pid>/task`` (Linux)."""
+    """CPU seconds (user + system) of the node's named threads, from ``/proc/<pid>/task``, and of the
+    whole process (``process``), from ``/proc/<pid>/stat`` (Linux)."""
     out: dict[str, float] = {}
     tick = os.sysconf("SC_CLK_TCK")
     try:
         tids = os.listdir(f"/proc/{pid}/task")
+        with open(f"/proc/{pid}/stat", encoding="ascii") as f:  # the whole process, every thread
+            fields = f.read().rsplit(")", 1)[1].split()
+        out["process"] = (int(fields[11]) + int(fields[12])) / tick
     except OSError:
         return out
     for tid in tids:
@@ -149,7 +153,7 @@ def run_once(
     sim_s = p1[1] - p0[1]
     threads = "".join(
         f", {name} thread {(cpu1[name] - cpu0[name]) / sim_s * 1e3:.0f}"
-        for name in THREADS.values()
+        for name in (*THREADS.values(), "process")
         if name in cpu0 and name in cpu1 and sim_s > 0
     )
     print(

@@ -513,10 +513,14 @@ class GearMisalignment(Effect):
         return self.angle_rad * self.face_width_m / (2.0 * delta0) <= 1.0
 
     def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
+        if self.full_contact(ctx.system):  # factor 1 at every angle: nothing to evaluate per step
+            return None
         rho, _ = self._rho(ctx)
         return on_mesh(ctx, self.mesh, tilted_contact_stiffness_factor(rho), 1.0)
 
     def transmission_error(self, ctx: Any) -> np.ndarray | None:
+        if self.full_contact(ctx.system):  # offset 0 at every angle
+            return None
         rho, delta0 = self._rho(ctx)
         return on_mesh(ctx, self.mesh, delta0 * tilted_contact_offset(rho), 0.0)
 

@@ -28,7 +28,14 @@ order ``K`` follows the speed at each update. A new fault list (``Simulator.set_
 running average of a wheel that stays tilted (it is the run's mesh force, not the effect's). Parts of
 ``F`` not synchronous with the tilted wheel (the other wheel's own orders, the non-periodic part at
 rattle) average out as the memory's length allows (the calibration's pass drops them exactly over
-whole hunting periods).
+whole hunting periods): a line between the wheel's orders leaks into an order ``df`` away by about
+``1 / (2 pi df STREAM_MEMORY_S)`` of its amplitude. ``Simulator(streamed_misalignment=False)`` runs
+the effects as given (the calibration's model runs: ``F0``, or the orders of their own pass).
+
+Measured (``test/test_misalignment_stream.py``; paper gearbox, 3000 rpm, 1 mrad on the gear): after
+1 s the orders equal the calibration pass's within 0.02 % at the mesh harmonics and 0.1 % of ``F0``
+at any order; the axial bearing reactions' sidebands equal those of a run with the pass's orders
+within 0.02 %, and at 8000 rpm (rattle) within 0.04 % (sidebands 11 % of the order-1 line there).
 """
 
 from __future__ import annotations

@@ -985,8 +985,21 @@ def _effect_arrays(
     ted = np.zeros((n, nm))
     ampl = np.zeros((n, lin.ne))
     inner = slice(1, n + 1)
-    ctx = make_context(system, t[inner], angle[inner], speed[inner])
     ctx_full = None
+    if nm and any(getattr(eff, "transmission_error", None) is not None for eff in effects):
+        # one context over the neighbours too; the inner one is its views (the same elementwise values)
+        ctx_full = make_context(system, t, angle, speed)
+        ph = ctx_full.mesh_phases
+        ctx = StepContext(
+            ctx_full.t[inner],
+            ctx_full.shaft_angle[inner],
+            ctx_full.shaft_speed[inner],
+            ctx_full.mesh_phase[inner],
+            system,
+            None if ph is None else ph[inner],
+        )
+    else:
+        ctx = make_context(system, t[inner], angle[inner], speed[inner])
     j0 = 0
     for eff in effects:
         fac = _effect_call(eff, "mesh_stiffness_factor", ctx)
