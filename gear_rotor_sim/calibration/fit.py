@@ -79,6 +79,7 @@ from gear_rotor_sim.calibration.fault_path import (
 from gear_rotor_sim.calibration.features_bearing import impulse_note, modulation_sidebands_hz
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
+from gear_rotor_sim.calibration.model_steps import StepChoice, converged_steps_per_mesh
 from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.residual import (
     REFERENCE_STEPS_PER_MESH,
@@ -210,6 +211,8 @@ class CalibrationResult:
     not_claimed: list[FoundEffect] = field(default_factory=list)
     model_form: dict[str, float] = field(default_factory=dict)
     baseline_reference: dict[str, Any] = field(default_factory=dict)
+    #: the step count of the model runs and the convergence checks that chose it (model_steps.py)
+    model_steps: dict[str, Any] = field(default_factory=dict)
 
     @property
     def baseline_effects(self) -> list[Effect]:
@@ -276,6 +279,7 @@ class CalibrationResult:
             "issues": self.measurement.issues,
             "notes": self.notes,
             "n_simulations": self.n_simulations,
+            **({"model_steps": self.model_steps} if self.model_steps else {}),
         }
 
 
@@ -350,6 +354,10 @@ class Calibrator:
     rattle_rules : bool
         Where the healthy model's teeth separate, add the baseline-ensemble variance to the order
         features and leave out a locked rattle component (``features_rattle.py``; default True).
+    steps_per_mesh : int, optional
+        Integration steps per mesh period of every model run. Default: chosen from the healthy
+        model's convergence at the record's operating point (``model_steps.py``; from 32, from 64
+        against a held ``baseline``), reported as ``model_steps`` in the result.
     """
 
     def __init__(
@@ -385,6 +393,9 @@ class Calibrator:
         #: healthy model stays in contact (Sec. 8.18): for a held reference baseline and its fit
         self.reference_numerics = baseline is not None if reference_numerics is None else reference_numerics
         self.settings = settings or ResidualSettings()
+        #: the step count is chosen from the healthy model's convergence unless given (model_steps.py)
+        self.auto_steps = steps_per_mesh is None
+        self.step_choice: StepChoice | None = None
         if baseline is not None:
             # against a held reference: located mesh events (REFERENCE_STEPS_PER_MESH) and the band
             # of a channel without an envelope line from its bearing's most prominent channel (Sec. 8.18)
@@ -1328,6 +1339,9 @@ class Calibrator:
                 self.runner.accel_from_velocity = False
                 self.runner.exact_modal_map = None
                 self.base_raw = self._raw(())
+        at_bearing = [c for c, n in enumerate(self.cmp.names) if n.startswith("bearing")]
+        if self.auto_steps and self.cmp.mesh_hz and self.cmp.shafts and at_bearing:
+            self._choose_steps(at_bearing)
         base_out = self.runner.outputs(self.base_raw)
         self.cmp.set_baseline(base_out)
         if self.runner.sensors is not None and any(housing_source(c) for c in self.runner.channels):
@@ -1342,6 +1356,40 @@ class Calibrator:
                     )
             base_out = self.runner.outputs(self.base_raw)
         return base_out
+
+    def _choose_steps(self, channels: list[int]) -> None:
+        """Steps per mesh period of every model run from the healthy model's own convergence at this
+        operating point (``model_steps.py``, docs/calibration.md Sec. 8.24), from the count set at
+        construction (32; 64 against a held reference), judged at ``channels`` (those measured at a
+        bearing: the envelope family's inputs). A record without such a channel keeps the count."""
+
+        def run(n: int) -> np.ndarray:
+            self.runner.steps_per_mesh = n
+            return self.runner.outputs(self._raw(()))
+
+        choice = converged_steps_per_mesh(
+            run,
+            self.m.data,
+            channels,
+            self.cmp.names,
+            self.m.sample_rate_hz,
+            [sh.ratio * self.cmp.speed_hz for sh in self.cmp.shafts],
+            start=self.runner.steps_per_mesh,
+        )
+        self.step_choice = choice
+        self.runner.steps_per_mesh = choice.steps_per_mesh
+        self.base_raw = self._raw(())
+        self.base_contact_loss = float(self.runner.last_contact_loss)
+        last = choice.checks[-1] if choice.checks else {}
+        msg = (
+            f"model steps per mesh period: {choice.steps_per_mesh} (healthy model's non-synchronous part "
+            f"against {last.get('finer')} steps: worst {last.get('worst_ratio', 0.0):.3g} x the noise at "
+            f"{last.get('worst_channel')}"
+            + ("" if choice.converged else "; not converged at the finest count tried")
+            + ")"
+        )
+        self.notes.append(msg)
+        self.log(msg)
 
     def _fit_baseline_stage(self, score: Score) -> list[FoundEffect]:
         """Fit the baseline parameter sets (mesh, bearings) to this record before any diagnosis.
@@ -1878,6 +1926,7 @@ class Calibrator:
             not_claimed,
             model_form,
             self.baseline_reference,
+            self.step_choice.as_dict() if self.step_choice is not None else {},
         )
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:
@@ -2011,6 +2060,7 @@ def synthetic_measurement(
         steps_per_mesh,
         effects=tuple(effects),
         event_average=False,  # the self-test's records as its tables were measured
+        streamed_misalignment=False,  # as the calibration's model runs (residual.ModelRunner)
     )
     i0 = round(warmup_s * sample_rate_hz)
     n = round(duration_s * sample_rate_hz)

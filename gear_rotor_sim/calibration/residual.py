@@ -131,7 +131,9 @@ def cached_system(cfg: object, temperature_c: float) -> object:
 #: are taken at the step instants and the timing error repeats with the step grid's beat against the
 #: tooth count, which puts numerical lines at every shaft order between the mesh harmonics
 #: (docs/calibration.md Sec. 8.18: ``bearing2_fx`` 1.35 N RMS over the non-carrier pinion orders at
-#: 3000 rpm, 0.015 N at 64 located). Without a reference the default stays 32 (not re-validated).
+#: 3000 rpm, 0.015 N at 64 located). Without a reference the count starts at 32. Either is the first
+#: count of the convergence rule of the diagnosis (``model_steps.py``, Sec. 8.24), which doubles it
+#: where the healthy model's non-synchronous part is not converged (4500 rpm / 75 C: 64 from 32).
 REFERENCE_STEPS_PER_MESH = 64
 
 #: envelope-band choice: a residual envelope line this many times its floor (6 dB, the detection
@@ -275,6 +277,7 @@ class ModelRunner:
             system_builder=cached_system,
             event_average=False,  # the setting the calibration tables were measured with
             exact_modal_map=self.exact_modal_map,
+            streamed_misalignment=False,  # the orders come from the fixed-point pass (or F0)
         )
         i0 = round(self.start_time * self.sample_rate_hz)
         n = self.n_model
