@@ -13,8 +13,12 @@ example >= 3 at 3000 rpm (issue 15).
 invalid mixed) at real time factor 1, and prints the largest gap between stream messages and the
 node's memory before and after.
 
+``--faults FILE`` adds runs with that fault list (the node's ``faults_file``), interleaved with the
+runs without it, and prints both medians and their ratio (e.g. the cost of a misaligned gear, whose
+axial force the simulator takes from a running average of its own mesh force).
+
     . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--burst]
-        [--model NAME]
+        [--model NAME] [--faults FILE]
 """
 
 from __future__ import annotations
@@ -46,13 +50,19 @@ GOALS = {(None, 3000.0): 10.0, (None, 20000.0): 6.0, ("two_stage_example", 3000.
 
 
 def _sim_args(
-    env: dict[str, str], speed: float, rtf: float, mcap: Path, model: str | None = None
+    env: dict[str, str],
+    speed: float,
+    rtf: float,
+    mcap: Path,
+    model: str | None = None,
+    faults: Path | None = None,
 ) -> list[str]:
     return [
         "--ros-args",
         "--params-file",
         str(share_file("config/simulator_node.yaml", env)),
         *(["-p", f"model:={model}"] if model else []),
+        *(["-p", f"faults_file:={faults}"] if faults else []),
         "-p",
         f"speed_rpm:={speed}",
         "-p",
@@ -84,11 +94,15 @@ THREADS = {"gear_rotor_step": "stepping", "gear_rotor_out": "output"}
 
 
 def thread_cpu_s(pid: int) -> dict[str, float]:
-    """CPU seconds (user + system) of the node's named threads, from ``/proc/<pid>/task`` (Linux)."""
+    """CPU seconds (user + system) of the node's named threads, from ``/proc/<pid>/task``, and of the
+    whole process (``process``), from ``/proc/<pid>/stat`` (Linux)."""
     out: dict[str, float] = {}
     tick = os.sysconf("SC_CLK_TCK")
     try:
         tids = os.listdir(f"/proc/{pid}/task")
+        with open(f"/proc/{pid}/stat", encoding="ascii") as f:  # the whole process, every thread
+            fields = f.read().rsplit(")", 1)[1].split()
+        out["process"] = (int(fields[11]) + int(fields[12])) / tick
     except OSError:
         return out
     for tid in tids:
@@ -105,14 +119,20 @@ def thread_cpu_s(pid: int) -> dict[str, float]:
 
 
 def run_once(
-    speed: float, warmup_s: float, measure_s: float, workdir: Path, model: str | None = None
+    speed: float,
+    warmup_s: float,
+    measure_s: float,
+    workdir: Path,
+    model: str | None = None,
+    faults: Path | None = None,
 ) -> float:
-    """Achieved real-time factor of one node run at ``speed`` rpm (``model``: the node's default)."""
+    """Achieved real-time factor of one node run at ``speed`` rpm (``model``: the node's default;
+    ``faults``: a fault list file)."""
     env = ros_environment()
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     mcap = workdir / f"bench_{int(speed)}.mcap"
     sim = start_process(
-        "simulator", _sim_args(env, speed, 1.0e4, mcap, model), env, workdir / "simulator.log"
+        "simulator", _sim_args(env, speed, 1.0e4, mcap, model, faults), env, workdir / "simulator.log"
     )
     probe = Probe(topics=("/gear_rotor/dte",), reliable=False, keep_data=False)
     try:
@@ -133,11 +153,12 @@ def run_once(
     sim_s = p1[1] - p0[1]
     threads = "".join(
         f", {name} thread {(cpu1[name] - cpu0[name]) / sim_s * 1e3:.0f}"
-        for name in THREADS.values()
+        for name in (*THREADS.values(), "process")
         if name in cpu0 and name in cpu1 and sim_s > 0
     )
     print(
-        f"  {speed:7.0f} rpm: achieved RTF {rtf:6.2f} ({sim_s:.2f} s simulated in "
+        f"  {speed:7.0f} rpm{' (faults)' if faults else ''}: achieved RTF {rtf:6.2f} "
+        f"({sim_s:.2f} s simulated in "
         f"{p1[0] - p0[0]:.2f} s wall; MCAP {size:.1f} MB"
         + (f"; ms CPU per simulated s{threads}" if threads else "")
         + ")",
@@ -201,7 +222,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--model", default=None, help="rig config of the node (e.g. two_stage_example; default: the node's)"
     )
+    parser.add_argument(
+        "--faults",
+        type=Path,
+        default=None,
+        help="YAML fault list (docs/faults.md): runs with it, interleaved with runs without",
+    )
     args = parser.parse_args(argv)
+    faults = args.faults.resolve() if args.faults else None
+    if faults is not None and not faults.is_file():
+        parser.error(f"--faults: {args.faults} is not a file")
     with tempfile.TemporaryDirectory(prefix="bench_node_") as tmp:
         workdir = Path(tmp)
         if args.burst:
@@ -210,16 +240,24 @@ def main(argv: list[str] | None = None) -> int:
             f"node end to end (simulate, publish default streams, record MCAP); median of {args.runs} runs"
             + (f"; model {args.model}" if args.model else "")
         )
-        results = {}
+        variants = [None, faults] if faults else [None]
+        results: dict[tuple[float, Path | None], float] = {}
         for speed in args.speeds:
-            results[speed] = statistics.median(
-                run_once(speed, args.warmup_s, args.measure_s, workdir, args.model) for _ in range(args.runs)
-            )
+            runs: dict[Path | None, list[float]] = {v: [] for v in variants}
+            for _ in range(args.runs):  # interleaved: the machine's load falls on both alike
+                for v in variants:
+                    runs[v].append(run_once(speed, args.warmup_s, args.measure_s, workdir, args.model, v))
+            for v in variants:
+                results[(speed, v)] = statistics.median(runs[v])
         print("\nspeed_rpm  achieved_RTF  goal")
-        for speed, rtf in results.items():
+        for speed in args.speeds:
+            rtf = results[(speed, None)]
             goal = GOALS.get((args.model, speed))
             verdict = "" if goal is None else f">= {goal:g}  {'met' if rtf >= goal else 'NOT met'}"
             print(f"{speed:9.0f}  {rtf:12.2f}  {verdict}")
+            if faults:
+                rf = results[(speed, faults)]
+                print(f"{speed:9.0f}  {rf:12.2f}  with {faults.name} (x{rf / rtf:.3f} of the run without)")
     return 0
 
 

@@ -10,8 +10,9 @@ What is compiled: a :class:`~gear_rotor_sim.simulator.Simulator` of the node's d
 (``paper_sun2021``) with every channel of the rig (the dispatch is by argument types, not sizes, so
 this covers any channel selection), run briefly at steady speed, at a speed where the teeth
 separate (event location), and through a speed ramp and a temperature ramp (the output FIR and the
-rebuilds); then the two-stage example (``two_stage_example``, two meshes through the same gear kernel,
-``solver/gear_kernel.py``).
+rebuilds), with a misaligned gear (the binning of its running mesh-force average,
+``solver/sync_average.py``); then the two-stage example (``two_stage_example``, two meshes
+through the same gear kernel, ``solver/gear_kernel.py``).
 
 ``--if-changed`` skips the run when the stamp written by the last warm-up still matches: numba's and
 numpy's versions, the Python version, the CPU numba compiles for and the modification time and
@@ -127,6 +128,10 @@ def warm_up(verbose: bool = True) -> float:
     sim.advance(0.06)  # speed and temperature ramps (rebuilds, ramped mesh phase)
     fast = Simulator(cfg, speed_rpm=17000.0, temperature_c=25.0, output_rate_hz=20000.0, channels=channels)
     fast.advance(0.01)  # inside the main chaotic band: contact loss, located mesh events
+    from gear_rotor_sim.faults import GearMisalignment
+
+    tilted = (GearMisalignment(angle_rad=1e-3),)  # its axial force's running mesh-force average
+    Simulator(cfg, 3000.0, 25.0, 20000.0, channels=["dte"], effects=tilted).advance(0.01)
     from gear_rotor_sim.config import load_config
 
     two = load_config("two_stage_example")

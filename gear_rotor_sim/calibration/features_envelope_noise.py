@@ -23,10 +23,12 @@ the floor and its scatter, whatever the machine:
   variances, not 3 (:func:`bin_sum_variance_factor`: 1.61). Measured on white noise: 1.69-1.72 (the
   rest: overlap and the non-Gaussian squared envelope).
 
-Applied with ``ResidualSettings(envelope_noise_corrected=True)``; off by default: measured on every
-row of the independent benchmark, the contact inner race is then no longer claimed (its envelope gain
-explains 16 % of the whole excess, 25 % needed), and the companion acceptance rule (a bearing defect's
-share of the envelope family's excess) is not yet verified on every row (docs/calibration.md Sec. 8.15).
+Applied with ``ResidualSettings(envelope_noise_corrected=True)`` (off by default until it is measured
+on every row of the independent benchmark, docs/calibration.md Sec. 8.15). With it a bearing defect
+whose own lines pass the signature checks is to be judged also on its share of the envelope family's
+excess (:func:`envelope_excess_share`): with the bin variances 1.61 times larger its envelope gain
+weighs less against the order family's model-form excess, which no bearing defect touches (the
+contact inner race: 16 % of the whole excess, 25 % needed).
 
 Assumes: the noise is white within the band (one octave; a sensor's or a housing resonance's
 colouring within it bends the true floor away from this shape); periodic modulation (a bearing
@@ -34,6 +36,8 @@ defect's impacts) stands above this floor as lines, as it should.
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 from scipy import signal as _sig
@@ -149,3 +153,35 @@ def envelope_noise_shape(
     if not med > 0 or not np.all(np.isfinite(g)):
         return np.ones(g.shape)
     return np.maximum(g / med, 1e-6)
+
+
+def envelope_excess_share(before: Any, after: Any) -> float:
+    """Share of the envelope family's excess (``chi2 - N``) that a candidate explains.
+
+    The acceptance share of a bearing defect whose own lines passed the signature checks
+    (``Calibrator._signature_check``: a significant gain on its characteristic lines and one of them
+    6 dB above the local floor), used next to its share of the whole balanced excess, as a damaged
+    tooth's share of its own comb's excess is (docs/calibration.md Sec. 8.23). A defect's impacts act
+    on the envelope family only; where the order family's model-form excess (which no bearing defect
+    touches) dominates the whole excess, the whole-excess share reads a correctly placed defect as
+    unimportant (the contact inner race: 16 % of the whole excess with the corrected bin count).
+
+    Parameters
+    ----------
+    before, after : Score
+        Scores (``residual.Score``: ``chi2`` and ``n`` per family) of the current model and of the
+        model with the candidate.
+
+    Returns
+    -------
+    float
+        ``(chi2_before - chi2_after) / (chi2_before - N)`` of the envelope family; 0 where the family
+        is absent or has no excess.
+    """
+    n = before.n.get("envelope", 0)
+    if n <= 0 or "envelope" not in after.chi2:
+        return 0.0
+    excess = before.chi2["envelope"] - n
+    if not excess > 0:
+        return 0.0
+    return float((before.chi2["envelope"] - after.chi2["envelope"]) / excess)

@@ -2034,6 +2034,7 @@ def synthetic_measurement(
         steps_per_mesh,
         effects=tuple(effects),
         event_average=False,  # the self-test's records as its tables were measured
+        streamed_misalignment=False,  # as the calibration's model runs (residual.ModelRunner)
     )
     i0 = round(warmup_s * sample_rate_hz)
     n = round(duration_s * sample_rate_hz)

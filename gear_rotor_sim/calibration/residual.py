@@ -277,6 +277,7 @@ class ModelRunner:
             system_builder=cached_system,
             event_average=False,  # the setting the calibration tables were measured with
             exact_modal_map=self.exact_modal_map,
+            streamed_misalignment=False,  # the orders come from the fixed-point pass (or F0)
         )
         i0 = round(self.start_time * self.sample_rate_hz)
         n = self.n_model

@@ -389,13 +389,19 @@ def order_grid(coef: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``Re c_0 + 2 sum_{k>=1} Re(c_k e^{i k theta})`` on a grid over one revolution: ``(theta, value)``
     with ``ORDER_GRID_PER_PERIOD`` points per period of the highest order ``K`` (linear interpolation
     on it: relative error of order ``k`` at most ``(pi k / (K ORDER_GRID_PER_PERIOD))^2 / 2``, 0.5 %
-    at ``K``), so that the cost per step does not grow with the number of orders."""
+    at ``K``), so that the cost per step does not grow with the number of orders. The sum is an
+    inverse real FFT on the grid (``n >= 32 K`` points, so no order folds): the cost grows as
+    ``K log K`` (the streaming simulator re-evaluates it at every update of its estimate,
+    ``faults/misalignment_stream.py``)."""
     coef = np.asarray(coef, dtype=complex)
-    k = np.arange(coef.size)
-    n = max(8, ORDER_GRID_PER_PERIOD * max(int(k[-1]), 1))
+    kmax = coef.size - 1
+    n = max(8, ORDER_GRID_PER_PERIOD * max(kmax, 1))
     grid = 2.0 * np.pi * np.arange(n + 1) / n
-    vals = coef[0].real + 2.0 * np.real(np.exp(1j * np.outer(grid, k[1:])) @ coef[1:])
-    return grid, vals
+    spec = np.zeros(n // 2 + 1, dtype=complex)
+    spec[0] = n * coef[0].real
+    spec[1 : kmax + 1] = n * coef[1:]
+    vals = np.fft.irfft(spec, n)
+    return grid, np.append(vals, vals[0])
 
 
 def evaluate_orders(coef: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -507,10 +513,14 @@ class GearMisalignment(Effect):
         return self.angle_rad * self.face_width_m / (2.0 * delta0) <= 1.0
 
     def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
+        if self.full_contact(ctx.system):  # factor 1 at every angle: nothing to evaluate per step
+            return None
         rho, _ = self._rho(ctx)
         return on_mesh(ctx, self.mesh, tilted_contact_stiffness_factor(rho), 1.0)
 
     def transmission_error(self, ctx: Any) -> np.ndarray | None:
+        if self.full_contact(ctx.system):  # offset 0 at every angle
+            return None
         rho, delta0 = self._rho(ctx)
         return on_mesh(ctx, self.mesh, delta0 * tilted_contact_offset(rho), 0.0)
 

@@ -194,6 +194,7 @@ def simulate_mesh_force(
             steps_per_mesh=steps_per_mesh,
             effects=tuple(effects),  # type: ignore[arg-type]
             event_average=False,  # as the calibration's model runs (residual.ModelRunner)
+            streamed_misalignment=False,  # the mesh force alone is read
             **kwargs,
         )
         i0 = round(settle_s * output_rate_hz)

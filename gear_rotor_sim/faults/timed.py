@@ -51,12 +51,28 @@ class TimedEffect:
             return np.zeros(np.shape(t))
         return self.spec.severity_at(t) / self.reference
 
+    def at_reference(self, t: np.ndarray) -> bool:
+        """Whether ``s(t) = S`` at every time of ``t`` (a fault without growth, past its onset): then
+        the effect's own arrays apply unchanged (what the ``np.where`` below gives, without its passes
+        over the chunk)."""
+        spec = self.spec
+        t = np.asarray(t)
+        return (
+            spec.growth is None
+            and t.size > 0
+            and self.reference != 0.0
+            and spec.initial_severity == self.reference
+            and float(t.min()) >= spec.onset_s
+        )
+
     # Effect protocol -----------------------------------------------------------------------
     def mesh_stiffness_factor(self, ctx: Any) -> np.ndarray | None:
         f = self.effect.mesh_stiffness_factor(ctx)
         if f is None:
             return None
         f = np.asarray(f, float)
+        if self.at_reference(ctx.t):
+            return f
         r = self.scale(ctx.t).reshape((-1,) + (1,) * (f.ndim - 1))
         return np.where(r == 1.0, f, np.where(r == 0.0, 1.0, 1.0 + r * (f - 1.0)))
 
@@ -65,6 +81,8 @@ class TimedEffect:
         if e is None:
             return None
         e = np.asarray(e, float)
+        if self.at_reference(ctx.t):
+            return e
         r = self.scale(ctx.t).reshape((-1,) + (1,) * (e.ndim - 1))
         return np.where(r == 1.0, e, r * e)
 
@@ -76,6 +94,8 @@ class TimedEffect:
         if a is None:
             return None
         a = np.asarray(a, float)
+        if self.at_reference(ctx.t):
+            return a
         r = self.scale(ctx.t).reshape((-1,) + (1,) * (a.ndim - 1))
         return np.where(r == 1.0, a, r * a)
 

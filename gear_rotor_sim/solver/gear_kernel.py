@@ -877,6 +877,106 @@ def _event_step(
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
+def _jump_average_start(
+    n: int,
+    phase: np.ndarray,
+    pha: np.ndarray,
+    kfac: np.ndarray,
+    has_kfac: bool,
+    tables: tuple,
+    kk: np.ndarray,
+    coef: np.ndarray,
+    jc: np.ndarray,
+    jk: np.ndarray,
+    jm: np.ndarray,
+    beta_prev: np.ndarray,
+    s_p: np.ndarray,
+    d_p: np.ndarray,
+    dd_p: np.ndarray,
+    e_p: np.ndarray,
+    ed_p: np.ndarray,
+    f_p: np.ndarray,
+    cm: np.ndarray,
+    bst: np.ndarray,
+    mesh_par: np.ndarray,
+) -> None:
+    """``average_jumps``: the tables of the meshes with a jump in step ``n`` replaced by their average
+    over the step (``kk``, ``coef``; the step end's kept in ``jk[0]``, ``jc[0]``), and their carried
+    columns by those of the start force with the average (the originals kept in ``jc[2]``). A call,
+    not inlined: the step loop's regular path keeps its code (and speed) when the option is off."""
+    nm = kk.shape[0]
+    nb = coef.shape[1]
+    for i in range(nm):
+        if jm[i] == 0:
+            continue
+        th = jk[2, i]
+        w1 = 0.5 * th
+        w2 = 0.5 * (1.0 - th)
+        jk[0, i] = kk[i]  # the step end's, kept for the carried force
+        for j in range(nb):
+            jc[0, i, j] = coef[i, j]
+        # pieces: start -> jump (left limit), jump (right limit) -> end; trapezoid each
+        k_ = _tables_at(i, phase[n, i], False, tables, coef)
+        ksum = w2 * k_
+        for j in range(nb):
+            jc[1, i, j] = w2 * k_ * coef[i, j]
+        k_ = _tables_at(i, pha[i], False, tables, coef)
+        ksum += w1 * k_
+        for j in range(nb):
+            jc[1, i, j] += w1 * k_ * coef[i, j]
+        k_ = _tables_at(i, jk[3, i], True, tables, coef)
+        ksum += w1 * k_
+        for j in range(nb):
+            jc[1, i, j] += w1 * k_ * coef[i, j]
+        k_ = _tables_at(i, jk[3, i], False, tables, coef)
+        ksum += w2 * k_
+        for j in range(nb):
+            jc[1, i, j] += w2 * k_ * coef[i, j]
+        for j in range(nb):
+            coef[i, j] = jc[1, i, j] / ksum
+        jk[1, i] = ksum
+        ka = ksum * kfac[n - 1, i] if has_kfac else ksum
+        fa = _state_force(s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], ka, cm[i], bst[i], f_p[i])
+        for j in range(nb):
+            jc[2, i, j] = beta_prev[i * nb + j]
+        _set_columns(i, beta_prev, coef, fa, d_p[i], dd_p[i], mesh_par)
+        kk[i] = ksum * kfac[n, i] if has_kfac else ksum
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
+def _jump_average_end(
+    kk: np.ndarray,
+    coef: np.ndarray,
+    jc: np.ndarray,
+    jk: np.ndarray,
+    jm: np.ndarray,
+    beta_prev: np.ndarray,
+    s_p: np.ndarray,
+    d_p: np.ndarray,
+    dd_p: np.ndarray,
+    e_p: np.ndarray,
+    ed_p: np.ndarray,
+    f_p: np.ndarray,
+    cm: np.ndarray,
+    bst: np.ndarray,
+    mesh_par: np.ndarray,
+) -> None:
+    """``average_jumps``: after the step, the end force with the end's own tables (``jk[0]``,
+    ``jc[0]``), carried (``f_p`` and the carried columns) into the next step."""
+    nm = kk.shape[0]
+    nb = coef.shape[1]
+    for i in range(nm):
+        if jm[i] == 0:
+            continue
+        kk[i] = jk[0, i]
+        for j in range(nb):
+            coef[i, j] = jc[0, i, j]
+        fb = _state_force(s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], kk[i], cm[i], bst[i], f_p[i])
+        f_p[i] = fb
+        _set_columns(i, beta_prev, coef, fb, d_p[i], dd_p[i], mesh_par)
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _te_sin_cos(phase: np.ndarray, mesh_par: np.ndarray, out: np.ndarray) -> None:
     """sin and cos of the transmission error's argument ``2 pi phase + phi_te`` (Eq 24) for every
     step and mesh of a chunk into ``out`` ``(n + 1, 2 nm)`` (sin columns, then cos), read by the
@@ -951,6 +1051,7 @@ def run_chunk_gear(
     expo: bool = False,
     mu_max: float = 1.0,
     event_average: bool = False,
+    average_jumps: bool = False,
 ) -> tuple[int, int, int, int]:
     """Advance ``n = phase.shape[0] - 1`` steps of the modal map with ``nm >= 1`` table meshes.
 
@@ -979,6 +1080,13 @@ def run_chunk_gear(
     (docs/solver.md, "Session 10", aliasing). Regular steps are unchanged. The mesh channels go to
     ``outs[12]``, ``outs[13]`` (the per-step mesh arrays stay end values: the state), the others
     through the output product's rows.
+
+    ``average_jumps`` (with ``locate``): a step whose only events are table jumps, at most one per
+    mesh, is not split but taken as a regular step with the tables' average over the step (the
+    trapezoidal average of each piece, weighted by its share of the step; the force coefficients
+    weighted by the stiffness, so that ``coef F`` integrates right) at both ends; the end force is then
+    re-evaluated with the end's own tables and carried (docs/solver.md, "Session 11"). Where the full
+    step finds a contact change it falls back to the sub-steps.
 
     A step holding an event is integrated by :func:`_event_step`: Newmark sub-steps split exactly
     at the jump phases (left limit of the tables at the end of one sub-step, right limit at the start
@@ -1095,9 +1203,12 @@ def run_chunk_gear(
     te_sc = np.empty((nsteps + 1, 2 * nm))
     _te_sin_cos(phase, mesh_par, te_sc)
     fz = (zero, gr, gi, qa, qb_full, resp_full, mats, flat, te_sc)
+    # average_jumps: per mesh the step end's coefficients, the weighted sums, the saved carried columns;
+    # the end stiffness, the average, the jump's fraction and phase; whether the mesh has a jump
+    ja = (np.zeros((3, nm, nb)), np.zeros((4, nm)), np.zeros(nm, dtype=np.int64))
     return _run_loop(
         modal, nf, mesh, tables, exc, carry, outs, dt, locate, bound, fused, expo, mu_max, wk, fz, ev, wtup,
-        prev, cur,
+        prev, cur, bool(average_jumps and locate), ja,
     )  # fmt: skip
 
 
@@ -1122,6 +1233,8 @@ def _run_loop(
     wtup: tuple,
     prev: tuple,
     cur: tuple,
+    avg_jumps: bool,
+    ja: tuple,
 ) -> tuple[int, int, int, int]:
     """The step loop of :func:`run_chunk_gear`, compiled without the numba runtime.
 
@@ -1145,6 +1258,7 @@ def _run_loop(
     bnd, bfe, bmesh, _bkind, _bdest, _allow, endfe, dph, pha, _fev, _phv = ev[:11]
     azr, azi, abeta, adf, avg_mode, zsr, zsi, bs, dfs = ev[11:]  # event_average
     d_p, dd_p, e_p, ed_p, f_p, s_p = prev
+    jc, jk, jm = ja
     nsteps = phase.shape[0] - 1
     nm = phase.shape[1]
     nt = tab_kf.shape[1]
@@ -1241,6 +1355,20 @@ def _run_loop(
                         bmesh[pos] = i
                         nev += 1
         regular = nev == 0 and not has_end
+        javg = False
+        if avg_jumps and nev > 0 and not has_end:
+            # only table jumps, at most one per mesh: a regular step with the tables' step average
+            javg = True
+            for i in range(nm):
+                jm[i] = 0
+            for q in range(1, nev + 1):
+                i = bmesh[q]
+                if jm[i] != 0:
+                    javg = False
+                jm[i] = 1
+                jk[2, i] = bnd[q]
+                jk[3, i] = bfe[q]
+            regular = javg
         tc0 = -1.0
         dest0 = 0
         mesh0 = -1
@@ -1277,6 +1405,11 @@ def _run_loop(
             if not finite:
                 _copy_int(s_p, state)
                 return STATUS_NONFINITE, o, n_fail, n_sub
+            if javg:
+                _jump_average_start(
+                    n, phase, pha, kfac, has_kfac, tables, kk, coef, jc, jk, jm, beta_prev, s_p, d_p, dd_p,
+                    e_p, ed_p, f_p, cm, bst, mesh_par,
+                )  # fmt: skip
             for q in range(ne):
                 beta_new[e0 + q] = ampl[n, q]
             # 3. delta, delta' affine in the mesh forces; 4. the mesh solve
@@ -1356,6 +1489,13 @@ def _run_loop(
                     regular = False
                     for i in range(nm):
                         pha[i] = phase[n - 1, i]
+                    if javg:  # back to the sub-steps at the jumps, which locate the contact change
+                        for i in range(nm):
+                            if jm[i] != 0:
+                                for j in range(nb):
+                                    beta_prev[i * nb + j] = jc[2, i, j]
+                        tc0 = -1.0
+                        javg = False
             if regular:
                 n_fail += fail
         if regular:
@@ -1513,6 +1653,10 @@ def _run_loop(
                     for j in range(nf):
                         sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
                     ypred[r] = sm
+            if javg:  # the end force with the end's own tables, carried into the next step
+                _jump_average_end(
+                    kk, coef, jc, jk, jm, beta_prev, s_p, d_p, dd_p, e_p, ed_p, f_p, cm, bst, mesh_par
+                )
         else:
             # a step holding an event: Newmark sub-steps split there
             ev_step = True

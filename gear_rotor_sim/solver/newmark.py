@@ -985,8 +985,21 @@ def _effect_arrays(
     ted = np.zeros((n, nm))
     ampl = np.zeros((n, lin.ne))
     inner = slice(1, n + 1)
-    ctx = make_context(system, t[inner], angle[inner], speed[inner])
     ctx_full = None
+    if nm and any(getattr(eff, "transmission_error", None) is not None for eff in effects):
+        # one context over the neighbours too; the inner one is its views (the same elementwise values)
+        ctx_full = make_context(system, t, angle, speed)
+        ph = ctx_full.mesh_phases
+        ctx = StepContext(
+            ctx_full.t[inner],
+            ctx_full.shaft_angle[inner],
+            ctx_full.shaft_speed[inner],
+            ctx_full.mesh_phase[inner],
+            system,
+            None if ph is None else ph[inner],
+        )
+    else:
+        ctx = make_context(system, t[inner], angle[inner], speed[inner])
     j0 = 0
     for eff in effects:
         fac = _effect_call(eff, "mesh_stiffness_factor", ctx)
@@ -1193,6 +1206,9 @@ class NewmarkStepper:
         #: gear kernel: on a step holding an event the channels carry the events' times
         #: (``gear_kernel.run_chunk_gear(event_average=True)``; docs/solver.md, "Session 10")
         self.event_average = False
+        #: a step whose only events are table jumps taken whole with the tables' step average
+        #: (``gear_kernel.run_chunk_gear(average_jumps=True)``; docs/solver.md, "Session 11")
+        self.average_jumps = False
 
     # --- basis handling
     def basis(self, omega: float) -> Basis:
@@ -1470,6 +1486,7 @@ class NewmarkStepper:
             mp.exact,
             EXACT_MAP_MU_MAX,
             avg,
+            bool(self.average_jumps),
         )
         self.n_substeps += nsub
         self.n_mesh_fail += nfail
