@@ -77,6 +77,7 @@ from gear_rotor_sim.calibration.fault_path import (
     with_path,
 )
 from gear_rotor_sim.calibration.features_bearing import impulse_note, modulation_sidebands_hz
+from gear_rotor_sim.calibration.features_envelope_noise import envelope_excess_share
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice, converged_steps_per_mesh
@@ -146,7 +147,9 @@ class CandidateFit:
     delta_bic: float = 0.0
     explained: float = 0.0
     feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
-    comb_explained: float = 0.0  # share of the order-comb excess explained (tooth damage)
+    #: share of its own family's excess explained once its own signature is present: a damaged tooth
+    #: its wheel's order comb, a bearing defect the envelope family (``envelope_excess_share``)
+    comb_explained: float = 0.0
     #: a baseline set fitted with the effect (a tooth's ratio depth held: the mesh stiffness scale)
     baseline_set: Effect | None = None
     #: the same candidate at its absolute-feature depth, verified in its place where the DTE depth's
@@ -1076,6 +1079,7 @@ class Calibrator:
                 f"floor < {self.fit.line_prominence:g}): below the detection threshold, not claimed"
             )
             return False
+        fit.comb_explained = envelope_excess_share(cur, fit.score)
         return True
 
     def _line_prominence(
