@@ -14,8 +14,8 @@ revolutions and the scatter estimate is too small).
 Usage::
 
     python -m lumped_gearbox record --speed-rpm 8000 --temperature-c 25 --seed 35 --out out/h8000.csv
-    python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12] [--corrected-envelope]
-    python benchmarks/rattle_floor.py RECORD.csv --calibrate [--baseline REF.json] [--corrected-envelope]
+    python benchmarks/rattle_floor.py out/h8000.csv [--block 8] [--top 12] [--flat-envelope]
+    python benchmarks/rattle_floor.py RECORD.csv --calibrate [--baseline REF.json] [--flat-envelope]
         [--orders 1 2 48 50]
 """
 
@@ -138,7 +138,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--corrected-envelope",
         action="store_true",
-        help="the envelope's corrected noise model (ResidualSettings.envelope_noise_corrected)",
+        help="the envelope's corrected noise model (the default since session 11; kept for old commands)",
+    )
+    ap.add_argument(
+        "--flat-envelope",
+        action="store_true",
+        help="the old envelope noise model: flat floor, 3 independent bins per sum "
+        "(ResidualSettings(envelope_noise_corrected=False))",
     )
     ap.add_argument(
         "--orders",
@@ -148,7 +154,9 @@ def main(argv: list[str] | None = None) -> int:
         help="output-shaft orders printed per channel with --calibrate (default 1 2)",
     )
     args = ap.parse_args(argv)
-    settings = ResidualSettings(envelope_noise_corrected=args.corrected_envelope)
+    if args.flat_envelope and args.corrected_envelope:
+        ap.error("--flat-envelope and --corrected-envelope exclude each other")
+    settings = ResidualSettings(envelope_noise_corrected=not args.flat_envelope)
     if args.calibrate:
         return after_fit(Path(args.record), args.baseline, settings, tuple(args.orders))
     m = load_measurement(Path(args.record))

@@ -23,16 +23,18 @@ the floor and its scatter, whatever the machine:
   variances, not 3 (:func:`bin_sum_variance_factor`: 1.61). Measured on white noise: 1.69-1.72 (the
   rest: overlap and the non-Gaussian squared envelope).
 
-Applied with ``ResidualSettings(envelope_noise_corrected=True)`` (off by default until it is measured
-on every row of the independent benchmark, docs/calibration.md Sec. 8.15). With it a bearing defect
-whose own lines pass the signature checks is to be judged also on its share of the envelope family's
-excess (:func:`envelope_excess_share`): with the bin variances 1.61 times larger its envelope gain
-weighs less against the order family's model-form excess, which no bearing defect touches (the
-contact inner race: 16 % of the whole excess, 25 % needed).
+The default since session 11 (``ResidualSettings.envelope_noise_corrected``, docs/calibration.md
+Sec. 8.23; ``False`` restores the flat floor and the plain count, under which pure noise scores 4.9).
+With it a bearing defect whose own lines pass the signature checks qualifies also on its share of the
+envelope family's excess (:func:`envelope_excess_share`): with the bin variances 1.61 times larger its
+envelope gain weighs less against the order family's model-form excess, which no bearing defect
+touches (the contact inner race: 14.5 % of the whole excess, 25 % needed).
 
 Assumes: the noise is white within the band (one octave; a sensor's or a housing resonance's
-colouring within it bends the true floor away from this shape); periodic modulation (a bearing
-defect's impacts) stands above this floor as lines, as it should.
+colouring within it bends the true floor away from this shape: measured on Gaussian noise, smooth
+colouring (1/f, AR(1)) scores 0.79-0.86, a resonance of Q 2 inside the band 1.6-2.9, of Q 5
+11-14); periodic modulation (a bearing defect's impacts) stands above this floor as lines, as it
+should.
 """
 
 from __future__ import annotations

@@ -56,6 +56,12 @@ from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_in_contact,
     refine_depth_by_ratios,
 )
+from gear_rotor_sim.calibration.candidates_tooth_dte import (
+    confirmed_or_fallback,
+    dte_depth_applies,
+    refine_depth_by_dte,
+    take_dte_depth,
+)
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
@@ -71,6 +77,7 @@ from gear_rotor_sim.calibration.fault_path import (
     with_path,
 )
 from gear_rotor_sim.calibration.features_bearing import impulse_note, modulation_sidebands_hz
+from gear_rotor_sim.calibration.features_envelope_noise import envelope_excess_share
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice, converged_steps_per_mesh
@@ -140,9 +147,14 @@ class CandidateFit:
     delta_bic: float = 0.0
     explained: float = 0.0
     feats: ModelFeatures | None = None  # fitted features (kept where a signature check needs them)
-    comb_explained: float = 0.0  # share of the order-comb excess explained (tooth damage)
+    #: share of its own family's excess explained once its own signature is present: a damaged tooth
+    #: its wheel's order comb, a bearing defect the envelope family (``envelope_excess_share``)
+    comb_explained: float = 0.0
     #: a baseline set fitted with the effect (a tooth's ratio depth held: the mesh stiffness scale)
     baseline_set: Effect | None = None
+    #: the same candidate at its absolute-feature depth, verified in its place where the DTE depth's
+    #: candidate is not confirmed by the whole record (candidates_tooth_dte.py)
+    fallback: CandidateFit | None = None
 
     @property
     def name(self) -> str:
@@ -1067,6 +1079,7 @@ class Calibrator:
                 f"floor < {self.fit.line_prominence:g}): below the detection threshold, not claimed"
             )
             return False
+        fit.comb_explained = envelope_excess_share(cur, fit.score)
         return True
 
     def _line_prominence(
@@ -1204,6 +1217,10 @@ class Calibrator:
         else:
             fb = self._full_features(rb, eff)
             self._path_note(eff, f"{main.name} {xb:.3g}")
+        # in contact with a DTE channel the depth is read from the DTE's low sideband families,
+        # transfer-free and below the carriers' dynamics, at the mesh scale the ratio depth's step takes
+        # (candidates_tooth_dte.py, Sec. 8.25)
+        by_dte = isinstance(eff, ToothDamage) and dte_depth_applies(self)
         if isinstance(eff, ToothDamage) and ratio_depth_applies(self):
             # without a reference the mesh stiffness scale is not identified: the depth is read from
             # the scale-free sideband energy ratios of the named tooth (candidates_tooth.py)
@@ -1240,9 +1257,8 @@ class Calibrator:
                         "fitted with it, not the tooth, carries the improvement"
                     )
                 elif score.balanced_chi2 + penalty < chi_abs:
-                    self._tooth_notes(rd.effect, f"depth {rd.effect.depth:.3g} (sideband energy ratios)")
                     unc = {**fit.uncertainty, "depth": rd.sigma}
-                    return dataclasses.replace(
+                    at_ratio = dataclasses.replace(
                         fit,
                         effect=rd.effect,
                         raw=rd.raw,
@@ -1251,6 +1267,12 @@ class Calibrator:
                         feats=fr,
                         baseline_set=rd.mesh_set,
                     )
+                    dd = refine_depth_by_dte(self, eff, accepted, rd.mesh_set) if by_dte else None
+                    if dd is not None:
+                        # verified in its place where the DTE depth is not confirmed
+                        return take_dte_depth(self, fit, dd, accepted, at_ratio)
+                    self._tooth_notes(rd.effect, f"depth {rd.effect.depth:.3g} (sideband energy ratios)")
+                    return at_ratio
                 else:
                     self.notes.append(
                         f"{eff.label}: the ratio depth {rd.effect.depth:.3g} is not used: with the mesh "
@@ -1259,6 +1281,11 @@ class Calibrator:
                     )
                 # the path factors and scatter of the absolute depth again
                 fb = self._tooth_features(rb, eff, accepted)
+        if by_dte:
+            dd = refine_depth_by_dte(self, eff, accepted)
+            if dd is not None:
+                at_abs = dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
+                return take_dte_depth(self, fit, dd, accepted, at_abs)
         if isinstance(eff, ToothDamage):
             self._tooth_notes(eff, f"{main.name} {xb:.3g}")
         return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
@@ -1707,6 +1734,9 @@ class Calibrator:
                 except (ValueError, RuntimeError) as exc:
                     self.notes.append(f"{f.effect.label}: refinement failed ({exc}); not claimed")
                     continue
+                others = [g.delta_bic for g in admissible if g is not f]
+                if ver.fallback is not None:
+                    ver = confirmed_or_fallback(self, ver, f, cur_score, max(others) if others else -np.inf)
                 dbic = cur_score.balanced_chi2 - ver.score.balanced_chi2 - f.k * math.log(N)
                 expl = (cur_score.balanced_chi2 - ver.score.balanced_chi2) / max(
                     cur_score.balanced_chi2 - N, 1e-12
