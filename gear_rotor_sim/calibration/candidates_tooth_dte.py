@@ -21,7 +21,12 @@ absolute depth (``candidates_tooth.py`` step 6), at that mesh scale, which goes 
 ``baseline_updates`` as before. The caller (``Calibrator._refine``) takes this depth in place of the
 absolute and the ratio depths: the absolute depth's whole-record minimum is pulled by the transfer paths
 of the bearing and housing channels, the ratio depth by the stiffness-variation shape of the carriers
-(Sec. 8.25).
+(Sec. 8.25). The tooth at the DTE depth must be confirmed by the whole record as the caller's acceptance
+does; otherwise the candidate of the rules before is verified in its place (:func:`confirmed_or_fallback`).
+
+Applied only where the baseline is fitted on the record: against a held reference the absolute depth at
+the reference's mesh scale stays (measured with the rule on: the x1.6 pinion tooth read +2 % but its
+error no longer halved, a row that passed at -22 %; Sec. 8.25).
 """
 
 from __future__ import annotations

@@ -27,8 +27,9 @@ What it assumes: continuous contact (a linear, quasi-static response of the DTE 
 mesh-coupled resonance; not used where the teeth separate), a known speed, and the model's static
 mesh compliance ``F / k``: the pulse is ``F / k`` times a function of ``d``, so a mesh stiffer by a
 factor ``s`` than the model reads a depth lower by roughly ``1 - 1 / s`` at small depth (Sec. 8.25:
-x1.342 moves the read by +18 % at depth 0.33). The mesh stiffness scale is therefore fitted with the
-depth (``candidates_tooth_dte.py``).
+x1.342 moves the read by +18 % at depth 0.33). The reading takes the model's mesh scale as it is (or
+the one the sideband-ratio step fits, ``candidates_tooth_dte.py``). At 4500 rpm, where the first
+carrier's sidebands lie nearer the mesh-coupled modes, it read +42 % on one record (Sec. 8.25).
 """
 
 from __future__ import annotations
