@@ -19,6 +19,7 @@ rattle healthy_8000``).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -34,6 +35,7 @@ from gear_rotor_sim.calibration.fault_path import path_channels, path_factors, s
 from gear_rotor_sim.calibration.features_rattle import (
     channel_tolerances,
     ensemble_variance,
+    ensemble_variances,
     locked_families,
 )
 from gear_rotor_sim.calibration.fit import Calibrator
@@ -41,7 +43,13 @@ from gear_rotor_sim.calibration.measurement import load_measurement
 from gear_rotor_sim.calibration.model_window import hunting_period_s, model_window_samples
 from gear_rotor_sim.calibration.residual import ModelFeatures
 from gear_rotor_sim.config import load_config
-from gear_rotor_sim.faults import GearEccentricity, GearMisalignment, MassUnbalance, ToothDamage
+from gear_rotor_sim.faults import (
+    GearEccentricity,
+    GearMisalignment,
+    MassUnbalance,
+    MeshStiffnessDamping,
+    ToothDamage,
+)
 
 RATTLE_RPM = 8000.0
 DURATION_S = 1.0
@@ -170,6 +178,25 @@ def test_ensemble_variance_and_channel_tolerance() -> None:
     # channel 0: orders 1-2 significant (order 3 has no nominal content): median of 0.2 and 0.25
     assert tol[0] == pytest.approx(0.225, rel=1e-12)
     assert tol[1] == 0.05  # no spread: the contact-regime floor
+
+
+def test_rule_one_takes_the_wide_ensemble_and_rule_three_the_narrow_one() -> None:
+    """Rule 1's per-feature variance comes from ``ENSEMBLE`` (mesh damping x0.5 / x2), rule 3's
+    per-channel tolerance from ``TOLERANCE_ENSEMBLE`` (x0.7 / x1.4); shared members run once. A model
+    whose one feature moves by ``ln(damping scale)`` (nothing for the other members): by hand
+    ``(ln 0.5^2 + ln 2^2) / 6 = ln(2)^2 / 3`` and ``(ln 0.7^2 + ln 1.4^2) / 6``."""
+    nominal = [[np.array([1.0 + 0j])]]
+    calls = []
+
+    def run_member(e):
+        calls.append(e)
+        d = math.log(e.damping_scale) if isinstance(e, MeshStiffnessDamping) else 0.0
+        return SimpleNamespace(order=[[nominal[0][0] + d]])
+
+    var, var_tol = ensemble_variances(nominal, run_member)
+    assert var[0][0][0] == pytest.approx(math.log(2.0) ** 2 / 3.0, rel=1e-12)
+    assert var_tol[0][0][0] == pytest.approx((math.log(0.7) ** 2 + math.log(1.4) ** 2) / 6.0, rel=1e-12)
+    assert len(calls) == 8  # 6 + the two narrow damping members; the others shared
 
 
 def test_locked_family_is_one_family_of_order_three_or_more() -> None:
