@@ -26,13 +26,13 @@ does; otherwise the candidate of the rules before is verified in its place (:fun
 
 Also applied against a held reference (session 12, Sec. 8.27): there the depth is read on the
 reference-updated machine, whose mesh scale is the reference's *dynamic* one (x1.11 on the independent
-2000 rpm record with the converged map, against the two models' mean-stiffness ratio 1.342). The absolute
-depth follows that scale almost like ``F / k`` (x1.199 -> x1.111: table pinion -19 % -> -30 %), the DTE
-comb much less (-10 % -> -12 %): its low orders are the pulse's area, and against the stiffer reference
-mesh the model's pulse and the record's differ by the static compliance only, not by the transfer path of
-the bearing and housing channels. Before the converged reference it was off there because the held-out x1.6
-pinion tooth (0.64) lost its error halving at the DTE depth against the 64-step Newmark reference
-(mesh x1.199, damping x1.0): traced in Sec. 8.27 to the held mesh damping, not to the rule.
+2000 rpm record with the converged map, against the two models' mean-stiffness ratio 1.342). Measured on
+the table's contact tooth records with the held mesh stiffness between x1.111 and x1.342, the DTE depth
+moves as ``s^0.6``, the absolute depth as ``s^1.2-1.3`` (nearly ``F / k``): the comb halves the depth's
+dependence on the held scale, it does not remove it. It was off against a reference in session 11
+because the held-out x1.6 pinion tooth (0.64) lost its error halving at the DTE depth against the 64-step
+Newmark reference; traced to that reference's mesh damping (x1.0; the converged reference fits x1.7, and
+with it the row halves), not to this rule.
 """
 
 from __future__ import annotations
