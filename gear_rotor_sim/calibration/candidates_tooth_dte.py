@@ -24,8 +24,9 @@ of the bearing and housing channels, the ratio depth by the stiffness-variation 
 (Sec. 8.25). The tooth at the DTE depth must be confirmed by the whole record as the caller's acceptance
 does; otherwise the candidate of the rules before is verified in its place (:func:`confirmed_or_fallback`).
 
-Also applied against a held reference (session 12, Sec. 8.27): there the depth is read on the
-reference-updated machine, whose mesh scale is the reference's *dynamic* one (x1.11 on the independent
+Also applied against a held reference when the reference numerics take the exact modal map
+(``ResidualSettings.reference_exact_map``, off by default; session 12, Sec. 8.27): there the depth is read
+on the reference-updated machine, whose mesh scale is the reference's *dynamic* one (x1.11 on the independent
 2000 rpm record with the converged map, against the two models' mean-stiffness ratio 1.342). Measured on
 the table's contact tooth records with the held mesh stiffness between x1.111 and x1.342, the DTE depth
 moves as ``s^0.6``, the absolute depth as ``s^1.2-1.3`` (nearly ``F / k``): the comb halves the depth's
@@ -78,8 +79,17 @@ def dte_channel(cal: Calibrator) -> int | None:
 
 def dte_depth_applies(cal: Calibrator) -> bool:
     """Order features, a DTE channel and the healthy model's teeth in contact; with the baseline fitted on
-    this record or held from a reference (Secs. 8.25, 8.27)."""
-    return bool("order" in cal.cmp.families and dte_channel(cal) is not None and ratio_depth_in_contact(cal))
+    this record, or held from a reference fitted and used with the exact modal map
+    (``ResidualSettings.reference_exact_map``: the rule is validated against the converged reference
+    only; against the 64-step Newmark one the held-out x1.6 pinion tooth loses its error halving,
+    Secs. 8.25, 8.27)."""
+    held_ok = cal.fit_baseline or bool(cal.reference_numerics and cal.settings.reference_exact_map)
+    return bool(
+        "order" in cal.cmp.families
+        and held_ok
+        and dte_channel(cal) is not None
+        and ratio_depth_in_contact(cal)
+    )
 
 
 def refine_depth_by_dte(
