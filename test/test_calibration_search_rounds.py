@@ -23,7 +23,7 @@ import pytest
 from gear_rotor_sim.calibration.fit import CandidateFit, FitSettings, FoundEffect
 from gear_rotor_sim.calibration.residual import Score
 from gear_rotor_sim.calibration.search_rounds import MAX_EXAMINED, RoundLedger, examine_round
-from gear_rotor_sim.faults import BearingDefect, MassUnbalance, ToothWear
+from gear_rotor_sim.faults import BearingDefect, MassUnbalance, MeshStiffnessDamping, ToothWear
 
 N = 100  # features
 CHI2_NOW = 2100.0  # the current model's chi^2: excess chi2 - N = 2000
@@ -49,10 +49,13 @@ class ScriptedCalibrator:
     fit: FitSettings = field(default_factory=FitSettings)
     notes: list[str] = field(default_factory=list)
     refined: list[str] = field(default_factory=list)
+    verified_static: dict[str, np.ndarray] = field(default_factory=dict)  # normalised channel-mean residuals
 
     def _refine(self, f: CandidateFit, accepted: list[Any]) -> CandidateFit:
         self.refined.append(f.effect.label)
-        return CandidateFit(f.effect, score(self.verified_chi2[f.effect.label]), None, f.k, {})
+        sc = score(self.verified_chi2[f.effect.label])
+        sc.static_r = self.verified_static.get(f.effect.label, sc.static_r)
+        return CandidateFit(f.effect, sc, None, f.k, {})
 
     def _at_bound(self, e: Any) -> list[str]:
         return ["force_n"] if e.label in self.at_bound else []
@@ -145,3 +148,25 @@ def test_ledger_runner_up_by_hand() -> None:
     led.refuse(a)
     assert led.runner_up(c) == -np.inf
     assert led.runner_up(a) == 30.0
+
+
+def test_a_baseline_set_not_taken_still_competes() -> None:
+    """A baseline set that would move a wrong channel mean further away is not taken in this round
+    but returns in the next (it is not refused): it stays the runner-up. Mesh scales (basis 1500,
+    verified at chi^2 1000: Delta BIC 1100 - 2 ln 100 = 1090.8) not taken; wear verified at chi^2
+    1200 (895.4) does not beat it, P = 1 / (1 + exp(97.7)), and is not claimed in this round."""
+    mesh = MeshStiffnessDamping(stiffness_scale=1.4)
+    # the DTE mean 8.7 sigma off; the stiffer mesh moves it to 9.5
+    cal = ScriptedCalibrator(
+        {mesh.label: 1000.0, WEAR.label: 1200.0}, verified_static={mesh.label: np.array([9.5, 0.5])}
+    )
+    now = score(CHI2_NOW)
+    now.static_r = np.array([8.7, 0.5])
+    fits = [basis(mesh, 1500.0, 0.5, k=2), basis(WEAR, 1000.0, 0.45)]
+    not_claimed: list[FoundEffect] = []
+    chosen = examine_round(cal, fits, fits, now, N, [], not_claimed, set())
+    assert chosen is None
+    assert cal.refined == [mesh.label, WEAR.label]
+    assert any("baseline update not taken" in n for n in cal.notes)
+    assert any(n.startswith(f"{WEAR.label}: after the full simulation it no longer beats") for n in cal.notes)
+    assert not_claimed == []

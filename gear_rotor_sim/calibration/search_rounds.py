@@ -6,13 +6,18 @@ verified candidate must also beat the round's *runner-up* (``P(best vs runner-up
 posterior of the difference; Kass & Raftery 1995). This module keeps the evidence that runner-up is
 taken from:
 
-* a candidate **refused after its verification** on physical grounds (a parameter at its bound, a
-  contradiction of the static content, a baseline update that moves a wrong channel mean further
-  away) cannot be claimed in this round or any later one. It is no longer an explanation of the
-  record, so it does not compete: the round passes to the next admissible candidate, which is
-  verified and judged by the same acceptance rules. Before this rule the refused leader's basis-run
-  Delta BIC stayed the runner-up of every later candidate of the round (the held-out x0.6 inner race:
-  tooth wear 1.05e4 refused, the verified inner race lost to it and nothing was claimed);
+* an effect **refused after its verification** on physical grounds (a parameter at its bound, a
+  contradiction of the static content: ``status`` ``at_bound`` / ``inconsistent`` in
+  ``not_claimed``) is never offered again. It is no longer an explanation of the record, so it does
+  not compete: the round passes to the next admissible candidate, which is verified and judged by
+  the same acceptance rules. Before this rule the refused leader's basis-run Delta BIC stayed the
+  runner-up of every later candidate of the round (the held-out x0.6 inner race: tooth wear 1.05e4
+  refused, the verified inner race lost to it and nothing was claimed);
+* a baseline set **not taken** in this round (it would move a wrong channel mean further away) is
+  not refused: it is offered again in the next round, after the machine has changed, so it still
+  competes here (with its verified Delta BIC). Treated as refused, on the 3000 rpm worn record of the
+  table it handed the first round to the wear on the nominal bearings (12.1 um for 20 um) instead of
+  to the bearing scale, after which the wear reads 21.1 um (Sec. 8.28);
 * a candidate **already verified** competes with its verified Delta BIC, the better-known number
   (the basis runs interpolate or linearise; the full simulation does not);
 * every other admissible candidate competes with its basis-run Delta BIC, as before.
@@ -166,7 +171,7 @@ def examine_round(
                     f"{ver.effect.label}: baseline update not taken, it moves a channel mean "
                     f"that is {float(np.max(rb)):.3g} sigma off further away"
                 )
-                ledger.refuse(f)
+                # not refused: a baseline set returns in the next round, so it still competes here
                 continue
             if dbic > cal.fit.bic_threshold:
                 ver.delta_bic, ver.explained = dbic, expl
