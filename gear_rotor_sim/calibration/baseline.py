@@ -68,6 +68,12 @@ class ReferenceBaseline:
         Main metric of the reference before and after the baseline update.
     notes : tuple of str
         Why the reference needs care (e.g. a temperature offset found on it, not carried).
+    rattle_amplitude : dict, optional
+        Where the reference's healthy model's teeth separate: the DTE amplitude at the first mesh order
+        of the reference record (``record_m``) and of the reference-updated model (``model_m``), the
+        record's noise (``noise_m``) and the model amplitude's spread over the baseline ensemble
+        (``spread_m``), m. Their ratio is the machine's rattle amplitude scale against the model's,
+        which the wear rule at rattle uses (``candidates_wear_rattle.rattle_scale``; Sec. 8.26).
     """
 
     effects: tuple[Effect, ...]
@@ -78,6 +84,7 @@ class ReferenceBaseline:
     error_before: float
     error_after: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    rattle_amplitude: dict[str, float] | None = None
 
     def calibrator_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :class:`~gear_rotor_sim.calibration.fit.Calibrator` that hold it."""
@@ -102,6 +109,7 @@ class ReferenceBaseline:
             "carried": ["baseline parameter sets", "carrier_tolerance"],
             "refitted_per_record": ["sensor gains", "transfer slopes", "noise", "envelope bands"],
             "notes": list(self.notes),
+            **({"rattle_amplitude": dict(self.rattle_amplitude)} if self.rattle_amplitude else {}),
         }
 
     def save(self, path: str | Path) -> Path:
@@ -113,6 +121,8 @@ class ReferenceBaseline:
 
 #: ``format`` tag of a saved reference baseline
 REFERENCE_FORMAT = "gear_rotor_sim.reference_baseline/1"
+#: fields of ``rattle_amplitude`` (optional; a reference where the teeth separate, Sec. 8.26)
+RATTLE_AMPLITUDE_KEYS = ("record_m", "model_m", "noise_m", "spread_m")
 
 
 def load_reference(path: str | Path) -> ReferenceBaseline:
@@ -152,6 +162,20 @@ def load_reference(path: str | Path) -> ReferenceBaseline:
     if not isinstance(ct, int | float) or not (0.0 < float(ct) <= 1.0):
         raise ValueError(f"{p}: field 'carrier_tolerance' = {ct!r}: must be a number in (0, 1]")
     op = d.get("operating_point") or {}
+    ra = d.get("rattle_amplitude")
+    if ra is not None:
+        if not isinstance(ra, dict):
+            raise ValueError(f"{p}: field 'rattle_amplitude' must be an object")
+        for k in RATTLE_AMPLITUDE_KEYS:
+            v = ra.get(k)
+            lo_ok = v is not None and isinstance(v, int | float) and math.isfinite(v)
+            if not lo_ok or not (v > 0 if k in ("record_m", "model_m") else v >= 0):
+                raise ValueError(
+                    f"{p}: field 'rattle_amplitude.{k}' = {v!r}: must be a finite number "
+                    + ("> 0" if k in ("record_m", "model_m") else ">= 0")
+                    + " (m)"
+                )
+        ra = {k: float(ra[k]) for k in RATTLE_AMPLITUDE_KEYS}
 
     def num(x: Any) -> float:
         return float(x) if isinstance(x, int | float) else math.nan
@@ -165,6 +189,7 @@ def load_reference(path: str | Path) -> ReferenceBaseline:
         error_before=num(d.get("error_before")),
         error_after=num(d.get("error_after")),
         notes=tuple(str(n) for n in d.get("notes") or []),
+        rattle_amplitude=ra,
     )
 
 
@@ -198,6 +223,7 @@ def fit_reference_baseline(
     -------
     ReferenceBaseline
     """
+    from gear_rotor_sim.calibration.candidates_wear_rattle import rattle_reference_amplitude
     from gear_rotor_sim.calibration.fit import Calibrator, FitSettings
 
     st = ResidualSettings(**vars(settings)) if settings is not None else ResidualSettings()
@@ -228,4 +254,5 @@ def fit_reference_baseline(
         error_before=float(r.error_before),
         error_after=float(r.error_after),
         notes=tuple(notes),
+        rattle_amplitude=rattle_reference_amplitude(cal),
     )

@@ -20,10 +20,12 @@ Five rules, applied only when the healthy model's teeth separate (contact-loss f
    :data:`ENSEMBLE` (a plausible spread of the uncertain baseline: mesh damping x0.5 / x2 since
    session 11, docs/calibration.md Sec. 8.23); the variance of each order
    coefficient over the members (mean squared deviation from the nominal run) is added to its
-   uncertainty. Features the baseline cannot pin down (rattle products) lose their weight; the
-   kinematic and quasi-static ones (the order-1 DTE of an eccentricity, ``e`` along the line of
-   action; the order-1 bearing forces of an unbalance, a lever rule) keep it, because the healthy
-   model has almost nothing there to vary.
+   uncertainty; likewise for each channel mean (:func:`static_ensemble_variance`, since session 12:
+   the DTE mean at rattle is a rattle product, docs/calibration.md Sec. 8.26). Features the baseline
+   cannot pin down (rattle products) lose their weight; the kinematic and quasi-static ones (the
+   order-1 DTE of an eccentricity, ``e`` along the line of action; the order-1 bearing forces of an
+   unbalance, a lever rule; the bearing forces' means, set by equilibrium) keep it, because the
+   healthy model has almost nothing there to vary.
 2. **Locked rattle component** (:func:`locked_families`). An impacting pair can lock a response
    component onto a shaft order: one line ``j`` and its intermodulation with the mesh harmonics
    (``m z +- j``), one sideband family of that shaft (``comb_families.py``). No library effect raises
@@ -145,6 +147,24 @@ def ensemble_variances(
     var = ensemble_variance(nominal, [runs[repr(e)].order for e in ENSEMBLE])
     var_tol = ensemble_variance(nominal, [runs[repr(e)].order for e in TOLERANCE_ENSEMBLE])
     return var, var_tol
+
+
+def static_ensemble_variance(nominal: np.ndarray, members: Sequence[np.ndarray]) -> np.ndarray:
+    """Variance of each channel mean over the ensemble: mean of ``(m_member - m_nominal)^2`` (rule 1 for
+    the static features).
+
+    Where the teeth separate the DTE mean is no static deflection but the small difference of the
+    drive and back flanks' contributions, each its time share times its mean position (+-20-25 um at
+    8000 rpm), 1-5 % of the rattle amplitude (docs/calibration.md Sec. 8.20): the uncertain mesh damping
+    moves it by more than itself (FE model, x0.7 / x1.4: -0.4 / 4.4 um for 1.4 um), and the wear
+    moves it at 0.12-0.52 um per um depending on that damping. A mean set by equilibrium (a bearing
+    force: load sharing by geometry) hardly moves over the ensemble and keeps its weight.
+    """
+    nom = np.asarray(nominal, dtype=float)
+    m = np.asarray([np.asarray(x, dtype=float) for x in members])
+    if m.size == 0:
+        return np.zeros_like(nom)
+    return np.mean((m - nom) ** 2, axis=0)
 
 
 def channel_tolerances(
@@ -284,6 +304,11 @@ def apply_rattle_uncertainty(
         return False
     var, var_tol = ensemble_variances(nominal.order, run_member)
     cmp.set_model_form_variance(var)
+    if getattr(nominal, "static", np.zeros(0)).size == cmp.nc:
+        # rule 1 for the channel means (the member runs are cached by the model runner)
+        cmp.v_static_model_form = static_ensemble_variance(
+            nominal.static, [run_member(e).static for e in ENSEMBLE]
+        )
     cmp.channel_tolerance = channel_tolerances(nominal.order, var_tol, cmp.v_order, cmp.s.tolerance)
     cmp.channel_tolerance_where = rattle_orders(nominal.order, cmp.v_order, [sh.orders for sh in cmp.shafts])
     cmp.gains_held = True
@@ -293,7 +318,8 @@ def apply_rattle_uncertainty(
     cmp.fault_path = path if bool(path.any()) and not bool(path.all()) else None
     issues.append(
         f"rattle: the healthy model's teeth separate {100 * contact_loss:.3g} % of the time; the order "
-        f"features carry the model-form variance of a {len(ENSEMBLE)}-member baseline ensemble, and the "
+        f"features and the channel means carry the model-form variance of a {len(ENSEMBLE)}-member "
+        "baseline ensemble, and the "
         "sensor gains (1), transfer slopes (0) and the time shift (0: the record's time origin is the "
         "shaft-angle reference) are held: the mesh carriers that fix them in contact are rattle "
         "products here; model-form tolerance per channel "

@@ -705,6 +705,8 @@ class Comparison:
         self.runner = runner
         self.s = settings
         self.v_model_form: list[list[np.ndarray]] | None = None
+        #: model-form variance of the channel means (``features_rattle.py`` rule 1 where the teeth separate)
+        self.v_static_model_form: np.ndarray | None = None
         #: per-channel model-form tolerance of the order features (replaces ``tolerance`` if larger)
         self.channel_tolerance: np.ndarray | None = None
         #: orders (per channel and shaft) that ``channel_tolerance`` applies to (None: all)
@@ -1409,6 +1411,8 @@ class Comparison:
                 + (self.s.static_tolerance * np.minimum(np.abs(mg), np.abs(d))) ** 2
                 + (self.s.tolerance * self.static_fluct[idx]) ** 2
             )
+            if self.v_static_model_form is not None:
+                s2 = s2 + self.v_static_model_form[idx]
             static_r = (d - mg) / np.sqrt(s2)
             chi2["static"] = float(np.sum(static_r**2))
             n["static"] = int(idx.size)

@@ -494,6 +494,7 @@ def _event_step(
     mesh0: int,
     nf: int,
     ev: tuple,
+    avg: tuple,
     modal: tuple,
     mesh: tuple,
     tables: tuple,
@@ -516,26 +517,39 @@ def _event_step(
     free part ``Re(V Phi r' z)``, the responses ``Re(sum_j rho_j pm_j)`` to the mesh columns and the
     static increment (``pm`` per dt), those to the effect columns, and with a reduced basis the
     dropped modes' static part of the new amplitudes; the compensation is eliminated with
-    ``E(w) = I - Kbar H_d - Cbar H_v`` of the sub-step. The bodies are written out here (one call per
-    event step, not one per sub-step and helper: every array handed over costs a reference count).
+    ``E(w) = I - Kbar H_d - Cbar H_v`` of the sub-step. The bodies are written out here: split into
+    small inlined functions (map, responses, excitation, compensation, solve, crossing, commit, right
+    limits; tried in session 12) every one of them changed the outputs' round-off (LLVM then
+    contracts and vectorises the same arithmetic differently), and the calibration's rows depend on
+    the solver's numbers bit for bit (docs/solver.md, "Session 12").
 
-    ``prev`` = (d, dd, e, ed, f, s) per mesh at the step start, updated to the step end; ``cur`` =
-    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force) receive the end values. ``expo``: the map
-    is the exact modal propagator (``newmark.step_map(exact=True)``), and so are its sub-steps.
-    Returns (status, failed solves, sub-steps).
+    Arrays by role: ``ev`` = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph): the
+    step's boundaries (fractions, jump phases, meshes, kinds, states after a located contact change,
+    whether a piece may be split again) and per mesh the end jump phase, phase advance, start phase,
+    and the sub-step end's jump phase and phase; ``avg`` = (azr, azi, abeta, adf, avg_mode, zsr, zsi,
+    bs, dfs): ``event_average``'s sums over the step and its start values; ``prev`` = (d, dd, e, ed,
+    f, s) per mesh at the step start, updated to the step end; ``cur`` = (kk, ee, ed, coef, beta_prev,
+    beta_new, alpha, force) receive the end values; ``work`` = (rp, sub, resp, mats, solve, swork,
+    g): the sub-step map (r', rho), the responses (qs, qn, qb, acc), the compensation's (qs, qn, pd,
+    pv), the affine form (a1, b1, am, bm, ...), the mesh solve's (new_state, cm, bst, work, rhs,
+    trial), the Gauss-Jordan work and the modal increments (gr, gi). ``expo``: the map is the exact
+    modal propagator (``newmark.step_map(exact=True)``), and so are its sub-steps. Returns (status,
+    failed solves, sub-steps).
     """
-    bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev[:11]
-    azr, azi, abeta, adf, avg_mode = ev[11:16]  # event_average: the step's averages
+    bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph = ev
+    azr, azi, abeta, adf, avg_mode = avg[:5]
     zr, zi, rr, ri, c0r, c0i, swr, swi, _crr, _cri, vrr, vri, mur, mui, pmr, pmi = modal
     pq, pqn, _pq_static, rstat, _pd, _pv, mesh_par = mesh
     _phase, phase_rate, kfac, te_add, ted_add, ampl = exc
     d_p, dd_p, e_p, ed_p, f_p, s_p = prev
     kk, ee, edv, coef, beta_prev, beta_new, alpha, force = cur
-    rp, resp, qb, acc, mats, solve_w, gr, gi, new_state, cm, bst, swn = work
+    rp, sub, resp, mats, solve, swork, g = work
+    gr, gi = g
+    new_state, cm, bst, swn, srhs, strial = solve
     qs, qn, pdm, pvm = resp
+    qb, acc = sub[2], sub[3]
     rpr, rpi, rhr, rhi = rp
     a1, b1, am, bm, _gd, _gv, _wv = mats
-    swork, srhs, strial = solve_w
     nm = d_p.shape[0]
     nr = 2 * nm
     nb = coef.shape[1]
@@ -879,31 +893,30 @@ def _event_step(
 @njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _jump_average_start(
     n: int,
-    phase: np.ndarray,
     pha: np.ndarray,
-    kfac: np.ndarray,
-    has_kfac: bool,
+    exc: tuple,
     tables: tuple,
-    kk: np.ndarray,
-    coef: np.ndarray,
-    jc: np.ndarray,
-    jk: np.ndarray,
-    jm: np.ndarray,
-    beta_prev: np.ndarray,
-    s_p: np.ndarray,
-    d_p: np.ndarray,
-    dd_p: np.ndarray,
-    e_p: np.ndarray,
-    ed_p: np.ndarray,
-    f_p: np.ndarray,
-    cm: np.ndarray,
-    bst: np.ndarray,
     mesh_par: np.ndarray,
+    prev: tuple,
+    cur: tuple,
+    ja: tuple,
 ) -> None:
     """``average_jumps``: the tables of the meshes with a jump in step ``n`` replaced by their average
-    over the step (``kk``, ``coef``; the step end's kept in ``jk[0]``, ``jc[0]``), and their carried
-    columns by those of the start force with the average (the originals kept in ``jc[2]``). A call,
-    not inlined: the step loop's regular path keeps its code (and speed) when the option is off."""
+    over the step (``cur``'s ``kk``, ``coef``; the step end's kept in ``jk[0]``, ``jc[0]``), and their
+    carried columns by those of the start force with the average (the originals kept in ``jc[2]``).
+
+    ``pha`` the meshes' phases at the step start; ``exc``, ``tables``, ``prev`` (per-mesh state at
+    the step start), ``cur`` (end values) as in :func:`_event_step`; ``ja`` = (jc, jk, jm): per mesh
+    the step end's coefficients, the weighted sums and the saved carried columns (jc, (3, nm, nb));
+    the end stiffness, the average, the jump's fraction and phase (jk, (4, nm)); whether the mesh
+    has a jump (jm). A call, not inlined: the step loop's regular path keeps its code (and speed)
+    when the option is off; without the numba runtime, its tuples of arrays cost no reference count.
+    """
+    phase, kfac = exc[0], exc[2]
+    d_p, dd_p, e_p, ed_p, f_p, s_p = prev
+    kk, coef, beta_prev = cur[0], cur[3], cur[4]
+    jc, jk, jm = ja
+    has_kfac = kfac.shape[0] > 0
     nm = kk.shape[0]
     nb = coef.shape[1]
     for i in range(nm):
@@ -936,7 +949,9 @@ def _jump_average_start(
             coef[i, j] = jc[1, i, j] / ksum
         jk[1, i] = ksum
         ka = ksum * kfac[n - 1, i] if has_kfac else ksum
-        fa = _state_force(s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], ka, cm[i], bst[i], f_p[i])
+        fa = _state_force(
+            s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], ka, mesh_par[i, 2], mesh_par[i, 3], f_p[i]
+        )
         for j in range(nb):
             jc[2, i, j] = beta_prev[i * nb + j]
         _set_columns(i, beta_prev, coef, fa, d_p[i], dd_p[i], mesh_par)
@@ -944,25 +959,12 @@ def _jump_average_start(
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
-def _jump_average_end(
-    kk: np.ndarray,
-    coef: np.ndarray,
-    jc: np.ndarray,
-    jk: np.ndarray,
-    jm: np.ndarray,
-    beta_prev: np.ndarray,
-    s_p: np.ndarray,
-    d_p: np.ndarray,
-    dd_p: np.ndarray,
-    e_p: np.ndarray,
-    ed_p: np.ndarray,
-    f_p: np.ndarray,
-    cm: np.ndarray,
-    bst: np.ndarray,
-    mesh_par: np.ndarray,
-) -> None:
+def _jump_average_end(mesh_par: np.ndarray, prev: tuple, cur: tuple, ja: tuple) -> None:
     """``average_jumps``: after the step, the end force with the end's own tables (``jk[0]``,
-    ``jc[0]``), carried (``f_p`` and the carried columns) into the next step."""
+    ``jc[0]``), carried (``prev``'s force and ``cur``'s carried columns) into the next step."""
+    d_p, dd_p, e_p, ed_p, f_p, s_p = prev
+    kk, coef, beta_prev = cur[0], cur[3], cur[4]
+    jc, jk, jm = ja
     nm = kk.shape[0]
     nb = coef.shape[1]
     for i in range(nm):
@@ -971,7 +973,9 @@ def _jump_average_end(
         kk[i] = jk[0, i]
         for j in range(nb):
             coef[i, j] = jc[0, i, j]
-        fb = _state_force(s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], kk[i], cm[i], bst[i], f_p[i])
+        fb = _state_force(
+            s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], kk[i], mesh_par[i, 2], mesh_par[i, 3], f_p[i]
+        )
         f_p[i] = fb
         _set_columns(i, beta_prev, coef, fb, d_p[i], dd_p[i], mesh_par)
 
@@ -1168,22 +1172,22 @@ def run_chunk_gear(
     avg_mode = np.zeros(1, dtype=np.int64)
     if event_average:
         avg_mode[0] = 2 if outs[0].shape[1] > 0 else 1
-    # event_average: the step's averages (azr, azi, abeta, adf), then its start values
-    ev = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fev, phv, np.zeros(nmode), np.zeros(nmode),
-          np.zeros(na), np.zeros((2, nm)), avg_mode, np.zeros(nmode), np.zeros(nmode), np.zeros(na),
-          np.zeros((2, nm)))  # fmt: skip
+    ev = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fev, phv)
+    # event_average: the step's averages (azr, azi, abeta, adf), the mode, then its start values
+    avg = (np.zeros(nmode), np.zeros(nmode), np.zeros(na), np.zeros((2, nm)), avg_mode, np.zeros(nmode),
+           np.zeros(nmode), np.zeros(na), np.zeros((2, nm)))  # fmt: skip
     rp = (np.zeros(nmode), np.zeros(nmode), np.zeros(nmode), np.zeros(nmode))
     qs = np.zeros((2 * nm, na))
     qn = np.zeros((2 * nm, na))
     acc = np.zeros(pmr.shape[0] + 2 * nm)
     pdm = np.zeros((nm, nm))
     pvm = np.zeros((nm, nm))
-    gr_all = np.zeros(nmode)
-    gi_all = np.zeros(nmode)
     mats = (a1, b1, am, bm, gd, gv, wv)
-    resp_sub = (qs, qn, pdm, pvm)  # sub-steps: the same, formed per sub-step
-    qb_sub = np.zeros(2 * nm)
-    wtup = (rp, resp_sub, qb_sub, acc, mats, (swork2, srhs, trial), gr_all, gi_all, new_state, cm, bst, swork)
+    solve = (new_state, cm, bst, swork, srhs, trial)
+    # sub-steps: the responses (to the carried and new amplitudes, the rest, work), the compensation's
+    sub = (qs, qn, np.zeros(2 * nm), acc)
+    resp_sub = (qs, qn, pdm, pvm)
+    work = (rp, sub, resp_sub, mats, solve, swork2, (np.zeros(nmode), np.zeros(nmode)))
     resp_full = (pq, pqn, pd, pv)  # full steps: responses to the carried and new amplitudes, compensation
     qb_full = np.zeros(2 * nm)
     prev = (d_p, dd_p, e_p, ed_p, f_p, s_p)
@@ -1199,16 +1203,15 @@ def run_chunk_gear(
         for j in range(min(nb, 4)):
             qa[4 * i + j] = i * nb + j
     flat = (swr2.ravel(), swi2.ravel(), crr2.ravel(), cri2.ravel())
-    wk = (beta_new, alpha, coef, kk, ee, ed, a1, b1, am, bm, cm, bst, new_state, trial, force, swork, srhs)
     te_sc = np.empty((nsteps + 1, 2 * nm))
     _te_sin_cos(phase, mesh_par, te_sc)
-    fz = (zero, gr, gi, qa, qb_full, resp_full, mats, flat, te_sc)
+    upd = (zero, gr, gi, qa, flat, te_sc, qb_full, resp_full)
     # average_jumps: per mesh the step end's coefficients, the weighted sums, the saved carried columns;
     # the end stiffness, the average, the jump's fraction and phase; whether the mesh has a jump
     ja = (np.zeros((3, nm, nb)), np.zeros((4, nm)), np.zeros(nm, dtype=np.int64))
     return _run_loop(
-        modal, nf, mesh, tables, exc, carry, outs, dt, locate, bound, fused, expo, mu_max, wk, fz, ev, wtup,
-        prev, cur, bool(average_jumps and locate), ja,
+        modal, nf, mesh, tables, exc, carry, outs, (prev, cur, mats, solve), (ev, avg, work, ja), upd, dt,
+        locate, bound, fused, expo, mu_max, bool(average_jumps and locate),
     )  # fmt: skip
 
 
@@ -1221,29 +1224,33 @@ def _run_loop(
     exc: tuple,
     carry: tuple,
     outs: tuple,
+    meshw: tuple,
+    evw: tuple,
+    upd: tuple,
     dt: float,
     locate: bool,
     bound: float,
     fused: bool,
     expo: bool,
     mu_max: float,
-    wk: tuple,
-    fz: tuple,
-    ev: tuple,
-    wtup: tuple,
-    prev: tuple,
-    cur: tuple,
     avg_jumps: bool,
-    ja: tuple,
 ) -> tuple[int, int, int, int]:
     """The step loop of :func:`run_chunk_gear`, compiled without the numba runtime.
 
-    Everything it needs is allocated by :func:`run_chunk_gear` and handed over grouped by role
-    (``wk`` mesh-solve work, ``fz`` fused-update work, ``ev`` / ``wtup`` event-step work, ``prev`` /
-    ``cur`` per-mesh state); this function allocates nothing (the output block product is the call
-    :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking, views, the inlined
-    :func:`_event_step`'s ~80 arrays) costs no atomic reference-count increment and decrement: with
-    it, the event steps spent about half their time in them at 20000 rpm (docs/solver.md, "Session 8").
+    Everything it needs is allocated by :func:`run_chunk_gear` and handed over grouped by role:
+    ``modal``, ``mesh``, ``tables``, ``exc``, ``carry``, ``outs`` as there; ``meshw`` = (prev, cur,
+    mats, solve): the per-mesh state at the step start (d, dd, e, ed, f, s), the step end's values
+    (kk, ee, ed, coef, beta_prev, beta_new, alpha, force), the affine form of delta, delta' in the
+    forces (a1, b1, am, bm and work) and the mesh solve's arrays (new_state, cm, bst, work, rhs,
+    trial); ``evw`` = (ev, avg, work, ja): the event steps' (:func:`_event_step`) boundaries and
+    phases, ``event_average``'s sums, the sub-steps' work, ``average_jumps``' arrays
+    (:func:`_jump_average_start`); ``upd`` = (zero, gr, gi, qa, flat, te_sc, qb_full, resp_full): the
+    regular step's fused update (column slots, flat rows), the TE's sin/cos (:func:`_te_sin_cos`) and
+    the full step's affine form (several meshes). This function allocates nothing (the output block
+    product is the call :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking,
+    views, the inlined :func:`_event_step`'s ~80 arrays) costs no atomic reference-count increment and
+    decrement: with it, the event steps spent about half their time in them at 20000 rpm
+    (docs/solver.md, "Session 8").
     """
     zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2, _vrr, _vri, _mur, _mui, _pmr, _pmi = modal
     pq, pqn, pq_static, _rstat, pd, pv, mesh_par = mesh
@@ -1252,11 +1259,15 @@ def _run_loop(
     beta_prev, ypred, state, mcarry = carry
     cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs[:12]
     dte_ch, fm_ch = outs[12], outs[13]  # the mesh channels (event_average; else not written)
-    beta_new, alpha, coef, kk, ee, ed, a1, b1, am, bm, cm, bst, new_state, trial, force, swork, srhs = wk
-    zero, gr, gi, qa, qb_full, resp_full, mats, flat, te_sc = fz
+    prev, cur, mats, solve = meshw
+    ev, avg, work, ja = evw
+    kk, ee, ed, coef, _beta_prev, beta_new, alpha, force = cur
+    a1, b1, am, bm = mats[0], mats[1], mats[2], mats[3]
+    new_state, cm, bst, swork, srhs, trial = solve
+    zero, gr, gi, qa, flat, te_sc, qb_full, resp_full = upd
     swr, swi, crr, cri = flat
-    bnd, bfe, bmesh, _bkind, _bdest, _allow, endfe, dph, pha, _fev, _phv = ev[:11]
-    azr, azi, abeta, adf, avg_mode, zsr, zsi, bs, dfs = ev[11:]  # event_average
+    bnd, bfe, bmesh, endfe, dph, pha = ev[0], ev[1], ev[2], ev[6], ev[7], ev[8]
+    azr, azi, abeta, adf, avg_mode, zsr, zsi, bs, dfs = avg  # event_average
     d_p, dd_p, e_p, ed_p, f_p, s_p = prev
     jc, jk, jm = ja
     nsteps = phase.shape[0] - 1
@@ -1406,10 +1417,7 @@ def _run_loop(
                 _copy_int(s_p, state)
                 return STATUS_NONFINITE, o, n_fail, n_sub
             if javg:
-                _jump_average_start(
-                    n, phase, pha, kfac, has_kfac, tables, kk, coef, jc, jk, jm, beta_prev, s_p, d_p, dd_p,
-                    e_p, ed_p, f_p, cm, bst, mesh_par,
-                )  # fmt: skip
+                _jump_average_start(n, pha, exc, tables, mesh_par, prev, cur, ja)
             for q in range(ne):
                 beta_new[e0 + q] = ampl[n, q]
             # 3. delta, delta' affine in the mesh forces; 4. the mesh solve
@@ -1654,9 +1662,7 @@ def _run_loop(
                         sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
                     ypred[r] = sm
             if javg:  # the end force with the end's own tables, carried into the next step
-                _jump_average_end(
-                    kk, coef, jc, jk, jm, beta_prev, s_p, d_p, dd_p, e_p, ed_p, f_p, cm, bst, mesh_par
-                )
+                _jump_average_end(mesh_par, prev, cur, ja)
         else:
             # a step holding an event: Newmark sub-steps split there
             ev_step = True
@@ -1671,8 +1677,8 @@ def _run_loop(
                     for q in range(na):
                         bs[q] = beta_prev[q]
             status, nfl, nsb = _event_step(
-                n, nev + 1, tc0, dest0, mesh0, nf, ev, modal, mesh, tables, exc, prev, cur, wtup, dt, bound,
-                expo, mu_max,
+                n, nev + 1, tc0, dest0, mesh0, nf, ev, avg, modal, mesh, tables, exc, prev, cur, work, dt,
+                bound, expo, mu_max,
             )  # fmt: skip
             n_fail += nfl
             n_sub += nsb
