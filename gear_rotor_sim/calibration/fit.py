@@ -23,7 +23,8 @@ Procedure (``docs/calibration.md``):
    ``k`` fitted parameters, ``N`` features; family-balanced chi^2). The best is accepted only if
    ``Delta BIC > bic_threshold`` and it explains at least ``min_explained`` of the excess residual
    (``chi2 - N``); its parameters are then refined with real simulations (secant steps) and the
-   acceptance re-checked on a full simulation of the updated model. Repeat until the error is at the
+   acceptance re-checked on a full simulation of the updated model; an effect refused there hands the
+   round to the next candidate (``search_rounds.py``). Repeat until the error is at the
    noise level, nothing qualifies, or ``max_effects`` are in.
 
 Baseline and consistency (issue 11, ``docs/calibration.md`` Sec. 8): the baseline parameter sets
