@@ -20,7 +20,8 @@ time (``time.process_time``) per simulated second, medians of ``--runs`` alterna
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_kernel_copy.py bitwise --save
 /tmp/ref.npz`` (about a minute), ``... bitwise --compare /tmp/ref.npz``, ``... timing --copy
-/tmp/gear_kernel_main.py --copy /tmp/gear_kernel_main2.py [--rpm 20000] [--runs 9]``.
+/tmp/gear_kernel_main.py --copy /tmp/gear_kernel_main2.py [--rpm 20000] [--runs 9]
+[--average-table-jumps]``.
 """
 
 from __future__ import annotations
@@ -194,7 +195,7 @@ def _load_copy(path: str) -> object:
     return mod
 
 
-def timing(copies: list[str], rpm: float, runs: int, chunk_s: float) -> None:
+def timing(copies: list[str], rpm: float, runs: int, chunk_s: float, average_jumps: bool) -> None:
     kernels = {"installed": gear_kernel.run_chunk_gear}
     for i, p in enumerate(copies):
         kernels[f"copy{i + 1}"] = _load_copy(p).run_chunk_gear  # type: ignore[attr-defined]
@@ -203,7 +204,9 @@ def timing(copies: list[str], rpm: float, runs: int, chunk_s: float) -> None:
     try:
         for k, fn in kernels.items():
             gear_kernel.run_chunk_gear = fn
-            sims[k] = Simulator(paper_gearbox(), rpm, 25.0, 20000.0, channels=["dte"])
+            sims[k] = Simulator(
+                paper_gearbox(), rpm, 25.0, 20000.0, channels=["dte"], average_table_jumps=average_jumps
+            )
             sims[k].advance(0.3)  # compiles, settles
         cpu: dict[str, list[float]] = {k: [] for k in kernels}
         load0 = os.getloadavg()[0]
@@ -216,7 +219,10 @@ def timing(copies: list[str], rpm: float, runs: int, chunk_s: float) -> None:
         load1 = os.getloadavg()[0]
     finally:
         gear_kernel.run_chunk_gear = orig
-    print(f"{rpm:.0f} rpm, DTE only, {runs} alternated runs of {chunk_s} s, load {load0:.1f}->{load1:.1f}")
+    opt = ", average_table_jumps" if average_jumps else ""
+    print(
+        f"{rpm:.0f} rpm, DTE only{opt}, {runs} alternated runs of {chunk_s} s, load {load0:.1f}->{load1:.1f}"
+    )
     print("  CPU ms per simulated s, median (min-max), CPU RTF of the median")
     for k, v in cpu.items():
         med = statistics.median(v)
@@ -242,12 +248,13 @@ def main() -> int:
     t.add_argument("--rpm", type=float, default=20000.0)
     t.add_argument("--runs", type=int, default=9)
     t.add_argument("--chunk", type=float, default=0.5)
+    t.add_argument("--average-table-jumps", action="store_true", help="Simulator(average_table_jumps=True)")
     args = ap.parse_args()
     if args.cmd == "bitwise" and args.against:
         return against(args.against)
     if args.cmd == "bitwise":
         return bitwise(args.save, args.compare, args.kernel)
-    timing(args.copy, args.rpm, args.runs, args.chunk)
+    timing(args.copy, args.rpm, args.runs, args.chunk, args.average_table_jumps)
     return 0
 
 

@@ -116,10 +116,10 @@ def test_wear_at_rattle_read_against_a_healthy_reference_at_the_same_speed(tmp_p
     """1 s lumped records at 8000 rpm against a healthy 8000 rpm reference of the same machine (fitted
     here; it carries the rattle amplitude scale): the worn record (20 um) is read within 25 % and beyond
     the trigger, nothing but tooth wear is claimed on it, and a healthy record stays below the trigger
-    and claims nothing. Measured: 19.0 um (-5 %) at 6.5 sigma; the claim is refused here because the
-    worn model raises the family-balanced error (2.22 -> 2.24: the oracle of Sec. 8.26, the FE wear does
-    not reproduce the independent record's rattle beyond its amplitude); on the 2 s benchmark record
-    against a 2 s reference (seed 43) it is claimed, 22.0 um (+10 %), 7.5 sigma, error 3.13 -> 3.12."""
+    and claims nothing. Measured: 19.0 um (-5 %) at 6.5 sigma. The claim itself is refused: the worn
+    model raises the family-balanced error (2.22 -> 2.24, the DTE mean), the oracle of Sec. 8.26 (the FE
+    wear does not reproduce the independent record's rattle beyond its amplitude). On 2 s records the
+    same: the benchmark's worn record 22.0 um (+10 %) at 7.5 sigma, refused (2.88 -> 2.89)."""
     from gear_rotor_sim.calibration.baseline import fit_reference_baseline
     from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.calibration.measurement import load_measurement

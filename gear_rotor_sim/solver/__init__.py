@@ -1,6 +1,8 @@
 """Nonlinear Newmark solver: exact modal trapezoidal map.
 
-Set-up in ``newmark``; compiled kernels in ``gear_kernel`` (any number of table meshes, full or
+The stepper in ``newmark``, its set-up in ``linear_model``, ``modal_basis``, ``modal_map``,
+``gear_arrays``, ``excitation``, ``state``, ``channels``, ``arrays`` (re-exported by ``newmark``);
+compiled kernels in ``gear_kernel`` (any number of table meshes, full or
 reduced modal basis, event location) and ``kernels`` (general: dense fallback, per-step arrays); the
 default dt rule in ``dt_rule``; constant-speed runs in ``steady``; anti-aliasing decimation in
 ``decimate``.

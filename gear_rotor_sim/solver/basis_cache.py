@@ -27,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gear_rotor_sim.solver.newmark import Basis, LinearModel, eigen_basis
+from gear_rotor_sim.solver.linear_model import LinearModel
+from gear_rotor_sim.solver.modal_basis import Basis, eigen_basis
 
 __all__ = ["MAX_CACHE_BYTES", "basis_key", "cache_dir", "cached_eigen_basis"]
 
