@@ -23,7 +23,8 @@ Procedure (``docs/calibration.md``):
    ``k`` fitted parameters, ``N`` features; family-balanced chi^2). The best is accepted only if
    ``Delta BIC > bic_threshold`` and it explains at least ``min_explained`` of the excess residual
    (``chi2 - N``); its parameters are then refined with real simulations (secant steps) and the
-   acceptance re-checked on a full simulation of the updated model. Repeat until the error is at the
+   acceptance re-checked on a full simulation of the updated model; an effect refused there hands the
+   round to the next candidate (``search_rounds.py``). Repeat until the error is at the
    noise level, nothing qualifies, or ``max_effects`` are in.
 
 Baseline and consistency (issue 11, ``docs/calibration.md`` Sec. 8): the baseline parameter sets
@@ -57,7 +58,6 @@ from gear_rotor_sim.calibration.candidates_tooth import (
     refine_depth_by_ratios,
 )
 from gear_rotor_sim.calibration.candidates_tooth_dte import (
-    confirmed_or_fallback,
     dte_depth_applies,
     refine_depth_by_dte,
     take_dte_depth,
@@ -95,6 +95,7 @@ from gear_rotor_sim.calibration.residual import (
     residual_spectrum,
     time_and_spectrum_errors,
 )
+from gear_rotor_sim.calibration.search_rounds import examine_round
 from gear_rotor_sim.faults import (
     BASELINE_TYPES,
     BEARING_6206,
@@ -1709,101 +1710,20 @@ class Calibrator:
             fits.sort(key=lambda f: -f.delta_bic)
             self._round_fits = fits
             admissible = [f for f in fits if self._signature_present(f, cur_score)]
-            chosen = None
-            # the three best candidates are examined; one whose own signature is absent (a tooth comb
-            # in one sideband family, bearing lines below the threshold) does not take a place
-            examined = 0
-            for f in fits:
-                if examined >= 3:
-                    break
-                if f in admissible:
-                    examined += 1
-                share = max(f.explained, f.comb_explained if f in admissible else 0.0)
-                if f.delta_bic <= self.fit.bic_threshold:
-                    break
-                if share < self.fit.min_explained:
-                    continue
-                if f not in admissible:
-                    self.notes.append(
-                        f"{f.effect.label}: not claimed, its characteristic lines do not carry the "
-                        "improvement or are below the detection threshold"
-                    )
-                    continue
-                try:
-                    ver = self._refine(f, accepted[len(self.pre_effects) :])
-                except (ValueError, RuntimeError) as exc:
-                    self.notes.append(f"{f.effect.label}: refinement failed ({exc}); not claimed")
-                    continue
-                others = [g.delta_bic for g in admissible if g is not f]
-                if ver.fallback is not None:
-                    ver = confirmed_or_fallback(self, ver, f, cur_score, max(others) if others else -np.inf)
-                dbic = cur_score.balanced_chi2 - ver.score.balanced_chi2 - f.k * math.log(N)
-                expl = (cur_score.balanced_chi2 - ver.score.balanced_chi2) / max(
-                    cur_score.balanced_chi2 - N, 1e-12
-                )
-                others = [g.delta_bic for g in admissible if g is not f]
-                runner_up = max(others) if others else -np.inf
-                p_sep = _logistic((dbic - runner_up) / 2) if np.isfinite(runner_up) else 1.0
-                verdict = ""
-                status = "found"
-                if isinstance(ver.effect, BASELINE_TYPES):
-                    # a baseline scale must not move a significantly wrong channel mean further away
-                    # (issue 11 item 3): a stiffer mesh cannot explain a DTE mean that grew
-                    rb, ra = np.abs(cur_score.static_r), np.abs(ver.score.static_r)
-                    if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
-                        self.notes.append(
-                            f"{ver.effect.label}: baseline update not taken, it moves a channel mean "
-                            f"that is {float(np.max(rb)):.3g} sigma off further away"
-                        )
-                        continue
-                    if dbic > self.fit.bic_threshold:
-                        ver.delta_bic, ver.explained = dbic, expl
-                        chosen = (ver, runner_up)
-                        break
-                    continue
-                bound = self._at_bound(ver.effect)
-                if bound:
-                    verdict, status = f"{', '.join(bound)} at its bound", "at_bound"
-                else:
-                    why = self._consistency(ver, cur_score)
-                    if why:
-                        verdict, status = why, "inconsistent"
-                if verdict and dbic > self.fit.bic_threshold:
-                    not_claimed.append(
-                        FoundEffect(
-                            ver.name,
-                            ver.effect.label,
-                            reported_parameters(ver.effect),
-                            ver.uncertainty,
-                            float(0.5 * _logistic(dbic / 2) * p_sep),
-                            float(dbic),
-                            float(expl),
-                            cur_score.error,
-                            ver.score.error,
-                            ver.effect,
-                            status,
-                        )
-                    )
-                    rejected_labels.add(ver.effect.label)
-                    self.notes.append(f"{ver.effect.label}: not claimed ({verdict})")
-                    continue
-                if (
-                    dbic > self.fit.bic_threshold
-                    and max(expl, f.comb_explained) >= self.fit.min_explained
-                    and p_sep >= 0.5
-                ):
-                    ver.delta_bic, ver.explained = dbic, expl
-                    chosen = (ver, runner_up)
-                    break
-                if p_sep < 0.5:
-                    self.notes.append(
-                        f"{f.effect.label}: after the full simulation it no longer beats the "
-                        "runner-up; not claimed"
-                    )
-                    continue
-                self.notes.append(
-                    f"{f.effect.label}: fitted but not confirmed by the full simulation (dBIC {dbic:.3g})"
-                )
+            # the best candidates are examined in turn (search_rounds.py, Sec. 8.28): one refused after
+            # its verification hands the round to the next and no longer competes as the runner-up;
+            # one whose own signature is absent (a tooth comb in one sideband family, bearing lines
+            # below the threshold) does not take a place
+            chosen = examine_round(
+                self,
+                fits,
+                admissible,
+                cur_score,
+                N,
+                accepted[len(self.pre_effects) :],
+                not_claimed,
+                rejected_labels,
+            )
             if chosen is None:
                 conclusion = (
                     "no effect claimed: no candidate explains the residual beyond noise and the parsimony "

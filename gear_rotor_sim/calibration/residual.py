@@ -676,9 +676,11 @@ class ResidualSettings:
     #: contact): the model runs take the exact modal map instead of the dt rule's choice. Newmark's
     #: period error at the mesh-coupled modes moves the reference's mesh stiffness scale with the step
     #: (x1.309 / 1.199 / 1.121 / 1.107 at 32 / 64 / 128 / 256 steps per mesh on the independent 2000 rpm
-    #: record; x1.111 with the exact map at 64). Off by default: measured on the independent benchmark
-    #: (docs/calibration.md Sec. 8.21) it moves the contact tooth depths against the reference further
-    #: below the truth
+    #: record; x1.111 / damping x1.7 with the exact map at 64). With it on, the contact tooth depth against
+    #: the reference is read from the DTE comb (``candidates_tooth_dte.dte_depth_applies``). Off by default:
+    #: measured on the independent benchmark (docs/calibration.md Sec. 8.27) three rattle rows that pass
+    #: against the unconverged reference fail against the converged one (23 of 27 with ``--baseline``),
+    #: and the converged reference's mesh damping sits at its grid edge (not identified)
     reference_exact_map: bool = False
 
 
