@@ -72,7 +72,7 @@ def diagnose(label: str, csv: Path, kw: dict) -> None:
     t = time.process_time()
     cal = Calibrator(load_measurement(csv), **kw)
     r = cal.run()
-    rd = getattr(cal, "rattle_wear_reading", None) or {}
+    rd = cal.rattle_wear_reading or {}
     found = ", ".join(f"{e.label} {e.parameters}" for e in r.effects) or "nothing"
     h, sd = 1e6 * rd.get("wear_depth_m", np.nan), 1e6 * rd.get("sigma_m", np.nan)
     print(

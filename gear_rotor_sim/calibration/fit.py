@@ -442,6 +442,8 @@ class Calibrator:
         env_max = self._envelope_max(cfg, bearing_geometry)
         self.cmp = Comparison(measurement, self.runner, self.settings, env_max)
         self.notes: list[str] = []
+        #: what the rattle wear rule read, claimed or not (``candidates_wear_rattle``); None if not run
+        self.rattle_wear_reading: dict[str, Any] | None = None
         #: baseline parameter sets in force (fixed when given, else fitted on this record first)
         self.baseline: list[Effect] = list(baseline or [])
         self.fit_baseline = baseline is None
