@@ -165,7 +165,12 @@ def cases() -> list[Held]:
 
 def make(case: Held, out: Path, duration_s: float) -> Path:
     rec = make_record(
-        case.speed_rpm, case.temperature_c, list(case.faults), duration_s=duration_s, seed=case.seed
+        case.speed_rpm,
+        case.temperature_c,
+        list(case.faults),
+        duration_s=duration_s,
+        seed=case.seed,
+        sampling=ci.SAMPLING,
     )
     return write_record(out / f"{case.tag}.csv", rec)
 
@@ -340,12 +345,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
     ap.add_argument("--list", action="store_true", help="print the cases and exit")
     ap.add_argument(
+        "--sampling",
+        choices=("daq", "point"),
+        default="daq",
+        help="the generator's chain: daq (default; anti-aliasing FIR, converged step) or point "
+        "(every 8th RK4 state without a low-pass: the records of sessions 1-12)",
+    )
+    ap.add_argument(
         "--from-results",
         nargs="+",
         metavar="DIR",
         help="no calibration: judge the *.calibration.json already in these directories (missing: 'not run')",
     )
     args = ap.parse_args(argv)
+    ci.SAMPLING = args.sampling  # the reference record is made by ci.make (before any pool forks)
     todo = cases()
     if args.cases:
         todo = [c for c in todo if any(s in c.tag for s in args.cases)]
@@ -384,7 +397,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             rows = [_job(j) for j in jobs]
         note = (
-            f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
+            f"{args.sampling} sampling, {args.jobs} job(s) on {os.cpu_count()} cores, "
+            f"load average {load0:.1f} at the start and "
             f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
         )
         text = render(rows, note)

@@ -103,6 +103,11 @@ def has_baseline_option() -> bool:
     return "--baseline" in out.stdout
 
 
+#: the generator's sampling chain (``--sampling``): "daq" (anti-aliased, converged step; the default
+#: since session 13) or "point" (the records of sessions 1-12); set by main() before any pool forks
+SAMPLING = "daq"
+
+
 def make(case: Case, out: Path, duration_s: float) -> Path:
     rec = make_record(
         case.speed_rpm,
@@ -110,6 +115,7 @@ def make(case: Case, out: Path, duration_s: float) -> Path:
         [case.fault] if case.fault else [],
         duration_s=duration_s,
         seed=case.seed,
+        sampling=SAMPLING,
     )
     return write_record(out / f"{case.tag}.csv", rec)
 
@@ -295,12 +301,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
     ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
     ap.add_argument(
+        "--sampling",
+        choices=("daq", "point"),
+        default="daq",
+        help="the generator's chain: daq (default; anti-aliasing FIR, converged step) or point "
+        "(every 8th RK4 state without a low-pass: the records of sessions 1-12)",
+    )
+    ap.add_argument(
         "--from-results",
         nargs="+",
         metavar="DIR",
         help="no calibration: judge the *.calibration.json already in these directories (missing: 'not run')",
     )
     args = ap.parse_args(argv)
+    global SAMPLING
+    SAMPLING = args.sampling
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     todo = cases(args.quick)
@@ -348,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             rows = [_job(j) for j in jobs]
         note = (
-            f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
+            f"{args.sampling} sampling, {args.jobs} job(s) on {os.cpu_count()} cores, "
+            f"load average {load0:.1f} at the start and "
             f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
         )
         text = render(rows, baseline_ok, note, skipped=args.no_baseline)

@@ -1,7 +1,9 @@
 """Is the independent lumped gearbox's pinion-order comb at 8000 rpm physics or numerics? (Sec. 8.26)
 
-``lumped_gearbox`` integrates with classical RK4 at ``substeps`` (8) steps per output sample and stores
-every 8th state as the 20 kHz record, without an anti-aliasing filter. At 8000 rpm a pinion revolution
+``lumped_gearbox``'s point-sampled chain (``make_record(..., sampling="point")``, the records of
+sessions 1-12; the default since session 13 is the data-acquisition chain of ``lumped_gearbox/daq.py``)
+integrates with classical RK4 at 8 steps per output sample and stores every 8th state as the 20 kHz
+record, without an anti-aliasing filter. At 8000 rpm a pinion revolution
 is exactly 150 output samples and 1200 steps, so (a) content above 10 kHz aliases onto pinion orders
 (mesh harmonic ``m`` in Nyquist zone ``k`` lands at order ``|29 m - 150 k|``, sideband family
 ``5 k mod 29``: zone 1 gives family 5) and (b) the step grid's position relative to the impacts repeats
@@ -10,8 +12,9 @@ generator's own model (read only) at the record's step and at ``--fine`` substep
 and prints each channel's pinion comb (``sqrt(2 sum |c|^2)`` over the sideband families 1-6 of orders
 1-93 of the synchronous average; family 5 apart) point-sampled as the record and after a zero-phase
 9 kHz low-pass; healthy and worn. With ``--records DIR`` it also writes the benchmark's two 8000 rpm
-records (``rattle_tooth_wear`` seed 28, ``healthy_8000rpm_25C`` seed 35) from the converged, low-passed
-signals with ``make_record``'s noise and gain draws, for ``gear-rotor-sim calibrate``.
+records (``rattle_tooth_wear`` seed 28, ``healthy_8000rpm_25C`` seed 35) with the generator's
+data-acquisition chain (``make_record``'s default since session 13, at ``--fine`` substeps), for
+``gear-rotor-sim calibrate``.
 
 Usage::
 
@@ -79,21 +82,13 @@ def main(argv: list[str] | None = None) -> int:
                 cells.append(f"{ch} {p[0]:.3g} / {p[1]:.3g} | {f[0]:.3g} / {f[1]:.3g}")
             print(f"{label}, {sub} substeps: " + "; ".join(cells), flush=True)
     if args.records is not None:
+        # since session 13 this is the generator's default chain (lumped_gearbox.daq: RK4 at --fine
+        # substeps, the anti-aliasing FIR, then the 20 kHz sampling); the scratch wrapper of session
+        # 12 (a 9 kHz firwin in this process) is gone
         import lumped_gearbox.record as rec
 
-        fine = args.fine
-
-        def converged(setup, duration_s, sample_rate_hz=FS, substeps=8, preroll_s=0.3):
-            full = run(setup, duration_s, sample_rate_hz * fine, substeps=1, preroll_s=preroll_s)
-            out = {}
-            for k, v in full.items():
-                keep = isinstance(v, np.ndarray) and v.ndim == 1 and k not in ("time_s", "mesh_force")
-                out[k] = lowpass(v, fine)[::fine] if keep else v[::fine]
-            return out
-
-        rec.run = converged  # this process only: the generator's files are not changed
         for tag, faults, seed in (("rattle_tooth_wear", [WEAR], 28), ("healthy_8000rpm_25C", [], 35)):
-            r = rec.make_record(SPEED_RPM, 25.0, faults, duration_s=2.0, seed=seed)
+            r = rec.make_record(SPEED_RPM, 25.0, faults, duration_s=2.0, seed=seed, substeps=args.fine)
             print(rec.write_record(args.records / f"{tag}.csv", r), flush=True)
     return 0
 

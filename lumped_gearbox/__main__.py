@@ -32,6 +32,13 @@ def main(argv: list[str] | None = None) -> int:
     rec.add_argument(
         "--housing", action="store_true", help="also record bearing2_housing_ax/ay (housing transfer path)"
     )
+    rec.add_argument(
+        "--sampling",
+        choices=("daq", "point"),
+        default="daq",
+        help="daq (default): converged RK4 step, anti-aliasing low-pass, then sampling; "
+        "point: every 8th RK4 state without a low-pass (the records of sessions 1-12)",
+    )
     rec.add_argument("--out", required=True, help="output CSV path")
     args = parser.parse_args(argv)
     try:
@@ -45,6 +52,7 @@ def main(argv: list[str] | None = None) -> int:
             sample_rate_hz=args.sample_rate_hz,
             seed=args.seed,
             housing=args.housing,
+            sampling=args.sampling,
         )
         path = write_record(args.out, r)
     except (ValueError, RuntimeError) as exc:
@@ -52,7 +60,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(
         f"wrote {path} (+ .yaml, .truth.json): {args.duration_s:g} s at {args.sample_rate_hz:g} Hz, "
-        f"contact-loss fraction {r.contact_loss_fraction:.3f}, {time.perf_counter() - t0:.1f} s"
+        f"{args.sampling} sampling, contact-loss fraction {r.contact_loss_fraction:.3f}, "
+        f"{time.perf_counter() - t0:.1f} s"
     )
     return 0
 

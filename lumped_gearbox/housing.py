@@ -48,17 +48,22 @@ def housing_acceleration(
     mass_kg: float = HOUSING_MASS_KG,
     frequency_hz: float = HOUSING_FREQUENCY_HZ,
     damping_ratio: float = HOUSING_DAMPING_RATIO,
+    oversample: int = OVERSAMPLE,
 ) -> np.ndarray:
     """Housing acceleration (m/s^2) for a sampled bearing force (N), starting from rest.
 
-    The static part of the force deflects the housing and gives no acceleration.
+    The static part of the force deflects the housing and gives no acceleration. ``oversample`` is
+    the band-limited interpolation factor before the first-order-hold stepping (1: the force is
+    already finely sampled, as in the data-acquisition chain of ``daq.py``).
     """
     f = np.asarray(force, dtype=float)
     k = mass_kg * (2.0 * math.pi * frequency_hz) ** 2
     c = 2.0 * damping_ratio * math.sqrt(k * mass_kg)
     a_mat = np.array([[0.0, 1.0], [-k / mass_kg, -c / mass_kg]])
     b_vec = np.array([0.0, 1.0 / mass_kg])
-    h = 1.0 / (sample_rate_hz * OVERSAMPLE)
+    if not (isinstance(oversample, int) and oversample >= 1):
+        raise ValueError(f"oversample: {oversample!r} must be an integer >= 1")
+    h = 1.0 / (sample_rate_hz * oversample)
     # augmented exponential: [[A, B, 0], [0, 0, 1/h], [0, 0, 0]] gives the first-order-hold terms
     aug = np.zeros((4, 4))
     aug[:2, :2] = a_mat * h
@@ -67,6 +72,6 @@ def housing_acceleration(
     e = expm(aug)
     phi, g0, g1 = e[:2, :2], e[:2, 2], e[:2, 3]
     mean = float(np.mean(f))  # static part: interpolated separately (no end effects)
-    fine = resample_poly(f - mean, OVERSAMPLE, 1) + mean
+    fine = resample_poly(f - mean, oversample, 1) + mean if oversample > 1 else f
     x0 = np.array([f[0] / k, 0.0])  # statically deflected by the first sample's force
-    return _advance(fine, phi, g0, g1, x0, k, c, mass_kg, OVERSAMPLE)[: f.size]
+    return _advance(fine, phi, g0, g1, x0, k, c, mass_kg, oversample)[: f.size]

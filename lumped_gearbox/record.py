@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from lumped_gearbox.daq import DAQ_SUBSTEPS, HOUSING_CHANNELS, acquire
 from lumped_gearbox.faults import Fault, fault_truth, parse_fault
 from lumped_gearbox.housing import housing_acceleration
 from lumped_gearbox.params import Gearbox
@@ -30,7 +31,6 @@ SIDECAR_CHANNELS = [
     {"column": "node5_ax", "quantity": "acceleration", "node": 5, "direction": "x", "unit": "m/s^2"},
     {"column": "node5_ay", "quantity": "acceleration", "node": 5, "direction": "y", "unit": "m/s^2"},
 ]
-HOUSING_CHANNELS = ("bearing2_housing_ax", "bearing2_housing_ay")
 SIDECAR_HOUSING = [
     {"column": c, "quantity": "housing_acceleration", "bearing": 2, "direction": c[-1], "unit": "m/s^2"}
     for c in HOUSING_CHANNELS
@@ -39,6 +39,10 @@ SIDECAR_HOUSING = [
 #: the two documented operating points (docs/independent_data.md): teeth in contact / rattling
 CONTACT_RPM = 3000.0
 RATTLE_RPM = 8000.0
+#: how a record is sampled: "daq" (converged step, anti-aliasing low-pass, then sampling; the default
+#: since session 13) or "point" (RK4 at 8 substeps, every 8th state, no low-pass: sessions 1-12)
+SAMPLINGS = ("daq", "point")
+POINT_SUBSTEPS = 8
 
 
 @dataclass
@@ -56,6 +60,8 @@ class Record:
     clean: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
     actual_temperature_c: float = 0.0
     contact_loss_fraction: float = 0.0
+    sampling: str = "daq"
+    substeps: int = DAQ_SUBSTEPS
 
     def truth(self) -> dict[str, Any]:
         return {
@@ -68,6 +74,8 @@ class Record:
             "gain": self.gain,
             "seed": self.seed,
             "contact_loss_fraction": self.contact_loss_fraction,
+            "sampling": self.sampling,
+            "substeps": self.substeps,
         }
 
 
@@ -82,6 +90,8 @@ def make_record(
     seed: int = 0,
     gearbox: Gearbox | None = None,
     housing: bool = False,
+    sampling: str = "daq",
+    substeps: int | None = None,
 ) -> Record:
     """Simulate the lumped gearbox and add sensor noise and gain errors.
 
@@ -103,16 +113,38 @@ def make_record(
     housing : bool
         Also record the housing accelerations at bearing 2 (``bearing2_housing_ax/ay``,
         :mod:`lumped_gearbox.housing`).
+    sampling : {"daq", "point"}
+        ``"daq"`` (default): the data-acquisition chain of :mod:`lumped_gearbox.daq`, RK4 at
+        ``substeps`` (default 32) steps per sample, every channel low-passed (linear-phase FIR,
+        passband to 0.4 fs, >= 80 dB from 0.5 fs) before sampling. ``"point"``: the chain of
+        sessions 1-12, RK4 at ``substeps`` (default 8) and every ``substeps``-th state kept without
+        a low-pass (content above ``fs / 2`` folds into the record).
+    substeps : int, optional
+        RK4 steps per output sample (default: 32 for ``"daq"``, 8 for ``"point"``).
+
+    Raises
+    ------
+    ValueError
+        Naming the field: ``sampling`` not one of :data:`SAMPLINGS`, ``substeps`` below 1, and the
+        operating point and fault checks of :func:`simulate.build`.
     """
+    if sampling not in SAMPLINGS:
+        raise ValueError(f"sampling: {sampling!r} not one of {', '.join(SAMPLINGS)}")
+    if substeps is None:
+        substeps = DAQ_SUBSTEPS if sampling == "daq" else POINT_SUBSTEPS
+    if not (isinstance(substeps, int) and substeps >= 1):
+        raise ValueError(f"substeps: {substeps!r} must be an integer >= 1")
     gb = gearbox or Gearbox()
     fl = [parse_fault(f) if isinstance(f, str) else f for f in faults]
     setup = build(gb, speed_rpm, temperature_c, fl)
-    clean = run(setup, duration_s, sample_rate_hz)
-    channels = CHANNELS
-    if housing:
-        for c in HOUSING_CHANNELS:
-            clean[c] = housing_acceleration(clean[f"bearing2_f{c[-1]}"], sample_rate_hz)
-        channels = CHANNELS + HOUSING_CHANNELS
+    channels = CHANNELS + HOUSING_CHANNELS if housing else CHANNELS
+    if sampling == "daq":
+        clean = acquire(setup, duration_s, sample_rate_hz, substeps, housing=housing)
+    else:
+        clean = run(setup, duration_s, sample_rate_hz, substeps)
+        if housing:
+            for c in HOUSING_CHANNELS:
+                clean[c] = housing_acceleration(clean[f"bearing2_f{c[-1]}"], sample_rate_hz)
     rng = np.random.default_rng(seed)
     data: dict[str, np.ndarray] = {}
     nf: dict[str, float] = {}
@@ -131,7 +163,19 @@ def make_record(
     fm = clean["mesh_force"]
     loss = float(np.mean(np.abs(fm) <= 1e-9 * max(1.0, float(np.max(np.abs(fm))))))
     return Record(
-        clean["time_s"], data, speed_rpm, temperature_c, fl, nf, gains, seed, clean, setup.temperature_c, loss
+        clean["time_s"],
+        data,
+        speed_rpm,
+        temperature_c,
+        fl,
+        nf,
+        gains,
+        seed,
+        clean,
+        setup.temperature_c,
+        loss,
+        sampling,
+        substeps,
     )
 
 
@@ -162,7 +206,10 @@ def write_record(path: str | Path, record: Record | None = None, **kwargs: Any) 
             "output_torque_nm": 200.0,
         },
         "gearbox": "paper_sun2021",
-        "description": "lumped_gearbox (independent lumped-parameter model), docs/independent_data.md",
+        "description": (
+            f"lumped_gearbox (independent lumped-parameter model, {rec.sampling} sampling), "
+            "docs/independent_data.md"
+        ),
         "channels": SIDECAR_CHANNELS + [c for c in SIDECAR_HOUSING if c["column"] in rec.data],
     }
     with open(path.with_suffix(".yaml"), "w", encoding="utf-8") as fh:

@@ -201,11 +201,20 @@ def run(
     )
     if out.shape[0] != n_out:
         raise RuntimeError("lumped model diverged (non-finite state); reduce the time step (substeps)")
+    return channels(setup, out, np.arange(n_out) / sample_rate_hz)
+
+
+def channels(setup: Setup, out: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
+    """The output channels from the stored states ``out`` of :func:`model.integrate` at times ``t``.
+
+    The bearing-defect pulses are averaged over each interval of ``t``'s grid (``bearing.py``), so
+    they follow the grid the states were stored on: the record's samples (:func:`run`) or every
+    integration step (the data-acquisition chain, ``daq.py``).
+    """
     q, v, a = out[:, 0:8], out[:, 8:16], out[:, 16:24]
     g, kk, cc = setup.geo, setup.kk, setup.cc
     sa, ca = g[mdl.G_SA], g[mdl.G_CA]
-    t = np.arange(n_out) / sample_rate_hz
-    pulses = np.zeros((n_out, 2))
+    pulses = np.zeros((t.size, 2))
     load_angle = math.atan2(-ca, -sa)  # direction of bearing 2's static load on the housing
     for i, d in enumerate(setup.bearing_defects):
         pulses += defect_forces(d.kind, d.force_n, d.defect_angle_rad, setup.speed_rpm, t, load_angle, seed=i)

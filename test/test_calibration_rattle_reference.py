@@ -183,7 +183,10 @@ def test_pinion_tooth_against_a_held_reference_where_the_teeth_separate(records)
     cands = [ToothDamage(wheel="pinion"), ToothDamage(wheel="gear")]
     res = Calibrator(load_measurement(records["healthy"]), candidates=cands[:1], **REFERENCE).run()
     assert res.effects == [], [(e.label, e.parameters) for e in res.effects]
-    assert any("at the channels at the mesh (DTE) gains -" in n for n in res.notes), res.notes
+    # (on the point-sampled records of sessions 1-12 the pinion tooth was refused by the mesh-channel
+    # rule here, note "at the channels at the mesh (DTE) gains -"; on the anti-aliased, converged record
+    # of lumped_gearbox/daq.py no pinion tooth explains anything beyond the noise: docs/calibration.md
+    # Sec. 8.29)
     res = Calibrator(load_measurement(records["pinion_tooth"]), candidates=cands, **REFERENCE).run()
     assert res.effects, res.notes
     first = res.effects[0]
