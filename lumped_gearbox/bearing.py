@@ -78,8 +78,8 @@ def defect_forces(
     for tk, ak, qk in zip(times, angles, q, strict=True):
         if qk <= 0.0:
             continue
-        i0 = max(0, math.floor(tk * fs) - 1)
-        i1 = min(t.size, math.ceil((tk + tau) * fs) + 1)
+        i0 = max(0, math.floor((tk - t[0]) * fs) - 1)  # t need not start at 0 (daq.py starts before it)
+        i1 = min(t.size, math.ceil((tk + tau - t[0]) * fs) + 1)
         if i0 >= i1:
             continue
         ts = t[i0:i1, None] - 0.5 / fs + sub[None, :] - tk

@@ -32,12 +32,6 @@ DURATION_S = 0.6  # 30 input revolutions at 3000 rpm: 17 envelope segments of 0.
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 11: nothing claimed (error 3.06 left unexplained) for a 300 N outer-race defect at "
-    "3000 rpm "
-    "on the anti-aliased generator (docs/independent_data.md, Session 13)",
-)
 def test_outer_race_defect_named_first_with_its_force(tmp_path: Path) -> None:
     from lumped_gearbox import make_record, write_record
 

@@ -67,6 +67,7 @@ from gear_rotor_sim.calibration.candidates_wear_contact import screen_wear_after
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
+from gear_rotor_sim.calibration.confirm_updated import judge_screened_offset, stalled_round_step
 from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_scatter
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
@@ -135,6 +136,10 @@ class FitSettings:
     #: ``min_family_share`` of the best family's gain) in ``min_comb_families`` sideband families
     min_family_share: float = 0.02
     min_comb_families: int = 3
+    #: where nothing passes on the not yet baseline-updated model, judge against the updated one: the
+    #: static screen's temperature offset confirmed against the baseline fitted with and without it,
+    #: a stalled round's best baseline set taken on Delta BIC alone (confirm_updated.py, Sec. 8.31)
+    confirm_on_updated: bool = False
 
 
 @dataclass
@@ -560,12 +565,15 @@ class Calibrator:
                 f"{x:.3g} degC, largest residual {float(np.max(np.abs(sc.static_r))):.3g} sigma)"
             )
             return None
-        dbic, expl = _screen_gain(score, sc)
-        if dbic <= self.fit.bic_threshold or expl < self.fit.min_explained:
-            return None
         eff = e.with_parameters(offset_c=x)
         if self._at_bound(eff):
             return None
+        # the whole features must confirm it: on the nominal model, else (the means match but the
+        # nominal model's carriers refuse it) against the baseline-updated model (confirm_updated.py)
+        judged = judge_screened_offset(self, score, sc, eff)
+        if judged is None:
+            return None
+        dbic, expl = judged
         # uncertainty from the static curvature
         h = max(0.01 * (hi - lo), 0.5)
         sig = self._curvature_sigma(static_chi2, x, static_chi2(x), h, 1, lo)
@@ -1740,6 +1748,12 @@ class Calibrator:
                 not_claimed,
                 rejected_labels,
             )
+            if chosen is None:
+                # nothing passes on the not yet updated model: the baseline is updated on Delta BIC
+                # alone and the search goes on against it (confirm_updated.py, Sec. 8.31)
+                chosen = stalled_round_step(
+                    self, fits, cur_score, N, accepted[len(self.pre_effects) :], baseline_round
+                )
             if chosen is None:
                 conclusion = (
                     "no effect claimed: no candidate explains the residual beyond noise and the parsimony "
