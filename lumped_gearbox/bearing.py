@@ -75,12 +75,11 @@ def defect_forces(
     q = np.maximum(np.cos(angles - load_angle_rad), 0.0) ** 1.5
     out = np.zeros((t.size, 2))
     sub = (np.arange(10) + 0.5) / 10.0 / fs  # 10 points per sample interval
-    t0 = float(t[0])  # the grid's first instant (before the record's start on the DAQ chain's grid)
     for tk, ak, qk in zip(times, angles, q, strict=True):
         if qk <= 0.0:
             continue
-        i0 = max(0, math.floor((tk - t0) * fs) - 1)
-        i1 = min(t.size, math.ceil((tk + tau - t0) * fs) + 1)
+        i0 = max(0, math.floor((tk - t[0]) * fs) - 1)  # t need not start at 0 (daq.py starts before it)
+        i1 = min(t.size, math.ceil((tk + tau - t[0]) * fs) + 1)
         if i0 >= i1:
             continue
         ts = t[i0:i1, None] - 0.5 / fs + sub[None, :] - tk

@@ -157,12 +157,14 @@ def test_rattle_healthy_claims_no_tooth_and_damaged_pinion_tooth_is_named(record
     assert first.label == "tooth_damage@pinion"
     assert first.parameters["tooth"] == 7
     # the depth from the channels at the mesh, the bearing forces' share a fitted transfer
-    # (fault_path.py): measured 0.315 on this record (-21 %; the DTE alone prefers 0.3), 0.362 on the
-    # 2 s benchmark record (0.157 there before); since the sideband energy ratios apply where the teeth
-    # separate (candidates_tooth.py, docs/calibration.md Sec. 8.14) 0.357 here and 0.359 there
+    # (fault_path.py): on the point-sampled records of sessions 1-12 measured 0.315 on this record (-21 %;
+    # the DTE alone prefers 0.3), 0.362 on the 2 s benchmark record (0.157 there before); since the
+    # sideband energy ratios apply where the teeth separate (candidates_tooth.py, docs/calibration.md
+    # Sec. 8.14) 0.357 here and 0.359 there
     assert first.parameters["depth"] == pytest.approx(0.4, rel=0.25)
     assert any("fitted transfer factor" in n for n in res.notes), res.notes
-    # measured 8.86 -> 3.67 on this record (8.86 -> 3.39 with the ratio depth and its mesh scale)
+    # measured 8.86 -> 3.67 on the point-sampled record (8.86 -> 3.39 with the ratio depth and its mesh
+    # scale)
     assert res.error_after <= 0.5 * res.error_before
 
 
@@ -238,9 +240,9 @@ def test_rattle_misalignment_angle_from_the_axial_force_and_wear_not_read_as_a_t
     """A 1 mrad gear misalignment where the teeth separate: its axial force at gear order 1 (0.72 N,
     SNR 57 on a 2 s record) is the same in both models, its edge-loaded mesh part is not (radial
     bearing force at gear order 2: FE 0.58 N, lumped 0.009 N); the angle comes from the axial force,
-    the mesh part's transfer is fitted (fault_path.py). Worn teeth (20 um) lock rattle components on
-    pinion orders of the families 2-6 but not on the fundamental family a damaged tooth raises too:
-    no tooth claimed (comb_families.fundamental_present)."""
+    the mesh part's transfer is fitted (fault_path.py). Worn teeth (20 um): no tooth claimed (on the
+    point-sampled records of sessions 1-12 their comb in families 2-6, the generator's step error, was
+    refused by comb_families.fundamental_present)."""
     m = load_measurement(records["misalignment"])
     res = Calibrator(m, candidates=[GearMisalignment(member="gear")], baseline_sets=[]).run()
     assert res.effects, res.notes

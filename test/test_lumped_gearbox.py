@@ -321,18 +321,44 @@ def test_daq_record_keeps_static_content_and_point_sampling_stays_reachable():
         make_record(3000.0, 25.0, duration_s=0.1, substeps=0)
 
 
-def test_daq_chain_keeps_the_bearing_defect_impulse():
-    """The data-acquisition chain records a bearing defect's impacts: its FIR has unit gain at 0 Hz, so
-    the record's force difference with and without the defect integrates to the same total impulse as
-    the point-sampled chain's (which holds every pulse averaged over its sample interval), within 0.1 %.
-    Session 13: the pulses were placed on the fine grid as if it started at 0 s; it starts half a filter
-    length earlier, and every pulse fell outside its window (the difference was exactly 0)."""
-    total = {}
-    for sampling in ("daq", "point"):
-        kw = dict(duration_s=0.3, noise=(0.0, 0.0), gain_error=0.0, seed=3, sampling=sampling)
-        with_defect = make_record(3000.0, 25.0, ["ball_defect:force_n=300"], **kw)
-        healthy = make_record(3000.0, 25.0, [], **kw)
-        diff = with_defect.data["bearing2_fy"] - healthy.data["bearing2_fy"]
-        total[sampling] = float(np.sum(diff)) / 20000.0
-    assert abs(total["point"]) > 0.1  # N s: about 140 ball impacts of up to 300 N over 0.12 ms
-    assert total["daq"] == pytest.approx(total["point"], rel=1e-3)
+def test_daq_record_keeps_the_bearing_defect_impulses():
+    """The pulses of an outer-race defect reach the record through the chain with their impulse: per
+    impact ``2 F q tau / pi`` (half-sine of peak ``F q``, q the Hertz factor at 90 deg from a load at
+    110 deg), at BPFO (3.568 x 50 Hz) over the record; the FIR's unit DC gain keeps the area."""
+    from lumped_gearbox.bearing import SPALL_WIDTH, kinematics
+
+    dur, force = 0.5, 300.0
+    healthy = make_record(3000.0, 25.0, duration_s=dur, seed=1, noise=(0.0, 0.0), gain_error=0.0)
+    faulty = make_record(
+        3000.0,
+        25.0,
+        [f"outer_race_defect:force_n={force}"],
+        duration_s=dur,
+        seed=1,
+        noise=(0.0, 0.0),
+        gain_error=0.0,
+    )
+    kin = kinematics(3000.0)
+    tau = SPALL_WIDTH / kin["outer_speed"]
+    q = math.cos(math.radians(20.0)) ** 1.5
+    per_impact = 2.0 * force * q * tau / math.pi
+    pulses = faulty.clean["bearing2_fy"] - healthy.clean["bearing2_fy"]  # the pulses act on the housing only
+    impulse = -float(np.sum(pulses)) / 20000.0  # the defect at -90 deg pushes the housing along -y
+    n_impacts = impulse / per_impact
+    assert abs(n_impacts - kin["outer_rate"] * dur) <= 1.5, (n_impacts, kin["outer_rate"] * dur)
+    # the same pulse train point-sampled (sessions 1-12): the same impulse within 2 % of one impact
+    point = make_record(
+        3000.0,
+        25.0,
+        [f"outer_race_defect:force_n={force}"],
+        duration_s=dur,
+        seed=1,
+        noise=(0.0, 0.0),
+        gain_error=0.0,
+        sampling="point",
+    )
+    ref = make_record(
+        3000.0, 25.0, duration_s=dur, seed=1, noise=(0.0, 0.0), gain_error=0.0, sampling="point"
+    )
+    impulse_point = -float(np.sum(point.clean["bearing2_fy"] - ref.clean["bearing2_fy"])) / 20000.0
+    assert abs(impulse - impulse_point) < 0.02 * per_impact + 1e-3 * abs(impulse_point)

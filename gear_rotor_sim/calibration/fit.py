@@ -64,9 +64,11 @@ from gear_rotor_sim.calibration.candidates_tooth_dte import (
     take_dte_depth,
 )
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_contact import screen_wear_after_baseline_update
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
+from gear_rotor_sim.calibration.confirm_updated import judge_screened_offset, stalled_round_step
 from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_scatter
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
@@ -138,6 +140,10 @@ class FitSettings:
     #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
     #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
     bearing_shaft_path: bool = True
+    #: where nothing passes on the not yet baseline-updated model, judge against the updated one: the
+    #: static screen's temperature offset confirmed against the baseline fitted with and without it,
+    #: a stalled round's best baseline set taken on Delta BIC alone (confirm_updated.py, Sec. 8.31)
+    confirm_on_updated: bool = False
 
 
 @dataclass
@@ -563,12 +569,15 @@ class Calibrator:
                 f"{x:.3g} degC, largest residual {float(np.max(np.abs(sc.static_r))):.3g} sigma)"
             )
             return None
-        dbic, expl = _screen_gain(score, sc)
-        if dbic <= self.fit.bic_threshold or expl < self.fit.min_explained:
-            return None
         eff = e.with_parameters(offset_c=x)
         if self._at_bound(eff):
             return None
+        # the whole features must confirm it: on the nominal model, else (the means match but the
+        # nominal model's carriers refuse it) against the baseline-updated model (confirm_updated.py)
+        judged = judge_screened_offset(self, score, sc, eff)
+        if judged is None:
+            return None
+        dbic, expl = judged
         # uncertainty from the static curvature
         h = max(0.01 * (hi - lo), 0.5)
         sig = self._curvature_sigma(static_chi2, x, static_chi2(x), h, 1, lo)
@@ -591,6 +600,19 @@ class Calibrator:
         dbic, expl = _screen_gain(score, sc)
         self.log(
             f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
+        )
+        return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
+
+    def _wear_after_baseline_update(self, score: Score) -> FoundEffect | None:
+        """Tooth wear from the DTE mean on the model whose baseline was just updated on this record
+        (no reference; ``candidates_wear_contact.py``)."""
+        hit = screen_wear_after_baseline_update(self, score)
+        if hit is None:
+            return None
+        eff, sc, sig = hit
+        dbic, expl = _screen_gain(score, sc)
+        self.log(
+            f"DTE-mean wear after the baseline update: {eff.label} {eff.parameters()}: error {sc.error:.3g}"
         )
         return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
 
@@ -1749,6 +1771,12 @@ class Calibrator:
                 rejected_labels,
             )
             if chosen is None:
+                # nothing passes on the not yet updated model: the baseline is updated on Delta BIC
+                # alone and the search goes on against it (confirm_updated.py, Sec. 8.31)
+                chosen = stalled_round_step(
+                    self, fits, cur_score, N, accepted[len(self.pre_effects) :], baseline_round
+                )
+            if chosen is None:
                 conclusion = (
                     "no effect claimed: no candidate explains the residual beyond noise and the parsimony "
                     "penalty with its own signature and consistently with the static content"
@@ -1795,6 +1823,22 @@ class Calibrator:
                     self.cmp.set_carrier_tolerance(ctol)
                 cur_score = self.cmp.score(cur_feat)
                 N = cur_score.n_total
+                if len(accepted) == len(self.pre_effects) and not any(
+                    isinstance(a_, ToothWear) for a_ in accepted
+                ):
+                    # without a reference: the DTE mean on the updated machine (candidates_wear_contact.py)
+                    wear = self._wear_after_baseline_update(cur_score)
+                    if wear is not None:
+                        self.pre_effects.append(wear.effect)
+                        accepted.append(wear.effect)
+                        self._sig_cache.clear()
+                        self._sig_checked.clear()
+                        self.base_raw = cur_raw = self._raw(())
+                        self._refit_transfer(self._features(self.base_raw))
+                        cur_feat = self._features(cur_raw)
+                        cur_score = self.cmp.score(cur_feat)
+                        wear.error_after = float(cur_score.error)
+                        found.append(wear)
                 continue
             found.append(
                 FoundEffect(
