@@ -63,6 +63,7 @@ from gear_rotor_sim.calibration.candidates_tooth_dte import (
     take_dte_depth,
 )
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_contact import screen_wear_after_baseline_update
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
@@ -595,6 +596,19 @@ class Calibrator:
         dbic, expl = _screen_gain(score, sc)
         self.log(
             f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
+        )
+        return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
+
+    def _wear_after_baseline_update(self, score: Score) -> FoundEffect | None:
+        """Tooth wear from the DTE mean on the model whose baseline was just updated on this record
+        (no reference; ``candidates_wear_contact.py``)."""
+        hit = screen_wear_after_baseline_update(self, score)
+        if hit is None:
+            return None
+        eff, sc, sig = hit
+        dbic, expl = _screen_gain(score, sc)
+        self.log(
+            f"DTE-mean wear after the baseline update: {eff.label} {eff.parameters()}: error {sc.error:.3g}"
         )
         return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
 
@@ -1787,6 +1801,22 @@ class Calibrator:
                     self.cmp.set_carrier_tolerance(ctol)
                 cur_score = self.cmp.score(cur_feat)
                 N = cur_score.n_total
+                if len(accepted) == len(self.pre_effects) and not any(
+                    isinstance(a_, ToothWear) for a_ in accepted
+                ):
+                    # without a reference: the DTE mean on the updated machine (candidates_wear_contact.py)
+                    wear = self._wear_after_baseline_update(cur_score)
+                    if wear is not None:
+                        self.pre_effects.append(wear.effect)
+                        accepted.append(wear.effect)
+                        self._sig_cache.clear()
+                        self._sig_checked.clear()
+                        self.base_raw = cur_raw = self._raw(())
+                        self._refit_transfer(self._features(self.base_raw))
+                        cur_feat = self._features(cur_raw)
+                        cur_score = self.cmp.score(cur_feat)
+                        wear.error_after = float(cur_score.error)
+                        found.append(wear)
                 continue
             found.append(
                 FoundEffect(
