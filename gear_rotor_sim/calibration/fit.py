@@ -139,7 +139,7 @@ class FitSettings:
     #: where nothing passes on the not yet baseline-updated model, judge against the updated one: the
     #: static screen's temperature offset confirmed against the baseline fitted with and without it,
     #: a stalled round's best baseline set taken on Delta BIC alone (confirm_updated.py, Sec. 8.31)
-    confirm_on_updated: bool = False
+    confirm_on_updated: bool = True
 
 
 @dataclass
