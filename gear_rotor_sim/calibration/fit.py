@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.candidates_bearing import fit_shaft_path_share, share_note
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
 from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_applies,
@@ -140,6 +141,9 @@ class FitSettings:
     #: static screen's temperature offset confirmed against the baseline fitted with and without it,
     #: a stalled round's best baseline set taken on Delta BIC alone (confirm_updated.py, Sec. 8.31)
     confirm_on_updated: bool = True
+    #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
+    #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
+    bearing_shaft_path: bool = True
 
 
 @dataclass
@@ -1164,6 +1168,21 @@ class Calibrator:
             )
         return spec.lower, spec.upper
 
+    def _bearing_path_share(self, ver: CandidateFit, accepted: list[Effect]) -> CandidateFit:
+        """The verified bearing defect ``ver`` with the share of its impact's modelled shaft path fitted
+        as a nuisance (``candidates_bearing.py``); ``ver`` itself where the share does not beat the full
+        path by ``ln N``, first on the superposed responses and then on a full simulation."""
+        sp = fit_shaft_path_share(self, ver.effect, accepted)
+        if not sp.taken:
+            return ver
+        raw = self._raw((*accepted, sp.effect))
+        f = self._full_features(raw)
+        score = self.cmp.score(f)
+        if ver.score.balanced_chi2 - score.balanced_chi2 <= math.log(max(self.n_total, 2)):
+            return ver
+        self.notes.append(share_note(sp))
+        return dataclasses.replace(ver, effect=sp.effect, raw=raw, score=score, feats=f)
+
     def _refine(self, fit: CandidateFit, accepted: list[Effect]) -> CandidateFit:
         """Refine the main scalar parameter with full simulations (parabola through three runs).
 
@@ -1175,7 +1194,10 @@ class Calibrator:
         if isinstance(e, GearEccentricity | MassUnbalance | ShaftMisalignment | BearingDefect):
             raw = self._raw((*accepted, e))
             f = self._full_features(raw)
-            return dataclasses.replace(fit, raw=raw, score=self.cmp.score(f), feats=f)
+            ver = dataclasses.replace(fit, raw=raw, score=self.cmp.score(f), feats=f)
+            if isinstance(e, BearingDefect) and self.fit.bearing_shaft_path:
+                ver = self._bearing_path_share(ver, accepted)
+            return ver
         if isinstance(e, ToothDamage) and not (
             self._path_mask(e) is not None and len(self.runner.cfg.meshes) == 1
         ):
