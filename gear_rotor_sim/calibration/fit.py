@@ -137,13 +137,13 @@ class FitSettings:
     #: ``min_family_share`` of the best family's gain) in ``min_comb_families`` sideband families
     min_family_share: float = 0.02
     min_comb_families: int = 3
-    #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
-    #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
-    bearing_shaft_path: bool = True
     #: where nothing passes on the not yet baseline-updated model, judge against the updated one: the
     #: static screen's temperature offset confirmed against the baseline fitted with and without it,
     #: a stalled round's best baseline set taken on Delta BIC alone (confirm_updated.py, Sec. 8.31)
-    confirm_on_updated: bool = False
+    confirm_on_updated: bool = True
+    #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
+    #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
+    bearing_shaft_path: bool = True
 
 
 @dataclass
