@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
             f"wear {h:4.0f} um: error {sc.error:.4g}, balanced chi2 {sc.balanced_chi2:.6g}; chi2/N {fam}; "
             f"static chi2 {sc.chi2.get('static', float('nan')):.3g} (|z| {zs}); DTE mean model "
             f"{1e6 * rows[-1][4]:.2f} um, record - model {1e6 * r:.2f} um = {r / s:.2f} sigma "
-            f"(sigma {1e6 * s:.2f} um); FE contact loss {loss:.3g}",
+            f"(sigma {1e6 * s:.2f} um); FE contact loss {loss:.3g}; DTE gain {sc.gains[c]:.3g}",
             flush=True,
         )
     h0, _, r0, _, m0 = rows[0]

@@ -45,7 +45,9 @@ POINTS = {
 }
 
 
-def floors(table: Path, seeds: list[int], out: Path) -> dict[tuple[str, bool], list[float]]:
+def floors(
+    table: Path, seeds: list[int], out: Path, ref: Path | None = None
+) -> dict[tuple[str, bool], list[float]]:
     """Healthy ``error_after`` at each point and variant: the table's record and one per seed."""
     rows = json.loads((table / "results.json").read_text())
     got: dict[tuple[str, bool], list[float]] = {}
@@ -53,7 +55,7 @@ def floors(table: Path, seeds: list[int], out: Path) -> dict[tuple[str, bool], l
         for r in rows:
             if r["record"] == tag and r.get("error_after") is not None:
                 got.setdefault((point, bool(r.get("baseline"))), []).append(float(r["error_after"]))
-    ref = table / f"baseline_{ci.BASELINE[0]:.0f}rpm_{ci.BASELINE[1]:.0f}C.reference.json"
+    ref = ref or table / f"baseline_{ci.BASELINE[0]:.0f}rpm_{ci.BASELINE[1]:.0f}C.reference.json"
     for point, (speed, _) in POINTS.items():
         for seed in seeds:
             case = ci.Case(f"floor_{speed:.0f}rpm_25C_seed{seed}", speed, 25.0, None, seed)
@@ -82,10 +84,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--out", type=Path, default=None, help="where the extra healthy records go (default: --table)"
     )
+    ap.add_argument("--reference", type=Path, default=None, help="reference JSON (default: --table's)")
+    ap.add_argument("--reuse-floors", action="store_true", help="read the floors of a previous run (--out)")
     args = ap.parse_args(argv)
     out = args.out or args.table
     out.mkdir(parents=True, exist_ok=True)
-    fl = floors(args.table, args.seeds, out)
+    saved = out / "floors.json"
+    if args.reuse_floors and saved.exists():
+        fl = {
+            (k.split("|")[0], k.split("|")[1] == "ref"): v for k, v in json.loads(saved.read_text()).items()
+        }
+    else:
+        fl = floors(args.table, args.seeds, out, args.reference)
+        saved.write_text(json.dumps({f"{p}|{'ref' if b else 'noref'}": v for (p, b), v in fl.items()}))
     bound: dict[tuple[str, bool], float] = {}
     for key, v in sorted(fl.items()):
         a = np.array(v)

@@ -61,8 +61,9 @@ def test_case_list_covers_both_operating_points_and_healthy_grid():
     full = bench.cases(quick=False)
     tags = [c.tag for c in full]
     assert len(set(tags)) == len(tags)
-    for op in ("contact", "rattle"):
-        assert sum(t.startswith(op) for t in tags) == len(bench.FAULTS)
+    for op, (speed, _) in bench.OPS.items():
+        assert sum(c.tag.startswith(op) and c.speed_rpm == speed for c in full) == len(bench.FAULTS)
+    assert [c.tag for c in full[-len(bench.EXTRA) :]] == [e[0] for e in bench.EXTRA]
     healthy = [(c.speed_rpm, c.temperature_c) for c in full if c.fault is None]
     assert len({s for s, _ in healthy}) >= 3 and len({t for _, t in healthy}) >= 3
 

@@ -100,7 +100,17 @@ def screen_wear_on_dte_mean(cal: Calibrator, score: Score) -> tuple[ToothWear, S
     Returns (effect, its full score, standard deviation of the depth) or None; the reasons for None
     that a user needs (the mean is off but no depth fits it) go to ``cal.notes``.
     """
-    if cal.fit_baseline or "static" not in score.chi2:
+    if cal.fit_baseline:
+        return None
+    return dte_mean_wear(cal, score)
+
+
+def dte_mean_wear(cal: Calibrator, score: Score) -> tuple[ToothWear, Score, float] | None:
+    """The DTE-mean reading of the module docstring on the current baseline-updated model (held from a
+    reference, or fitted on the record itself: ``candidates_wear_contact.py``): the trigger, the depth
+    from the mean, the profile scale and the BIC confirmation. Same returns as
+    :func:`screen_wear_on_dte_mean`."""
+    if "static" not in score.chi2:
         return None
     cand = next((e for e in cal.candidates if isinstance(e, ToothWear)), None)
     if cand is None or not cal.base_contact_loss <= MAX_CONTACT_LOSS:
@@ -126,7 +136,7 @@ def screen_wear_on_dte_mean(cal: Calibrator, score: Score) -> tuple[ToothWear, S
     r, s = dte_mean_residual(cal, feats, c)
     if abs(r) > Z_TRIGGER * s or h >= 0.99 * upper:
         cal.notes.append(
-            f"wear from the DTE mean: the mean stands {r0 / s0:.3g} sigma above the reference-updated "
+            f"wear from the DTE mean: the mean stands {r0 / s0:.3g} sigma above the baseline-updated "
             f"model, but a depth of {1e6 * h:.3g} um leaves it at {r / s:.3g} sigma: not read as wear"
         )
         return None

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.candidates_bearing import fit_shaft_path_share, share_note
 from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
 from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_applies,
@@ -63,6 +64,7 @@ from gear_rotor_sim.calibration.candidates_tooth_dte import (
     take_dte_depth,
 )
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
+from gear_rotor_sim.calibration.candidates_wear_contact import screen_wear_after_baseline_update
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
@@ -138,7 +140,10 @@ class FitSettings:
     #: where nothing passes on the not yet baseline-updated model, judge against the updated one: the
     #: static screen's temperature offset confirmed against the baseline fitted with and without it,
     #: a stalled round's best baseline set taken on Delta BIC alone (confirm_updated.py, Sec. 8.31)
-    confirm_on_updated: bool = False
+    confirm_on_updated: bool = True
+    #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
+    #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
+    bearing_shaft_path: bool = True
 
 
 @dataclass
@@ -595,6 +600,19 @@ class Calibrator:
         dbic, expl = _screen_gain(score, sc)
         self.log(
             f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
+        )
+        return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
+
+    def _wear_after_baseline_update(self, score: Score) -> FoundEffect | None:
+        """Tooth wear from the DTE mean on the model whose baseline was just updated on this record
+        (no reference; ``candidates_wear_contact.py``)."""
+        hit = screen_wear_after_baseline_update(self, score)
+        if hit is None:
+            return None
+        eff, sc, sig = hit
+        dbic, expl = _screen_gain(score, sc)
+        self.log(
+            f"DTE-mean wear after the baseline update: {eff.label} {eff.parameters()}: error {sc.error:.3g}"
         )
         return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
 
@@ -1150,6 +1168,21 @@ class Calibrator:
             )
         return spec.lower, spec.upper
 
+    def _bearing_path_share(self, ver: CandidateFit, accepted: list[Effect]) -> CandidateFit:
+        """The verified bearing defect ``ver`` with the share of its impact's modelled shaft path fitted
+        as a nuisance (``candidates_bearing.py``); ``ver`` itself where the share does not beat the full
+        path by ``ln N``, first on the superposed responses and then on a full simulation."""
+        sp = fit_shaft_path_share(self, ver.effect, accepted)
+        if not sp.taken:
+            return ver
+        raw = self._raw((*accepted, sp.effect))
+        f = self._full_features(raw)
+        score = self.cmp.score(f)
+        if ver.score.balanced_chi2 - score.balanced_chi2 <= math.log(max(self.n_total, 2)):
+            return ver
+        self.notes.append(share_note(sp))
+        return dataclasses.replace(ver, effect=sp.effect, raw=raw, score=score, feats=f)
+
     def _refine(self, fit: CandidateFit, accepted: list[Effect]) -> CandidateFit:
         """Refine the main scalar parameter with full simulations (parabola through three runs).
 
@@ -1161,7 +1194,10 @@ class Calibrator:
         if isinstance(e, GearEccentricity | MassUnbalance | ShaftMisalignment | BearingDefect):
             raw = self._raw((*accepted, e))
             f = self._full_features(raw)
-            return dataclasses.replace(fit, raw=raw, score=self.cmp.score(f), feats=f)
+            ver = dataclasses.replace(fit, raw=raw, score=self.cmp.score(f), feats=f)
+            if isinstance(e, BearingDefect) and self.fit.bearing_shaft_path:
+                ver = self._bearing_path_share(ver, accepted)
+            return ver
         if isinstance(e, ToothDamage) and not (
             self._path_mask(e) is not None and len(self.runner.cfg.meshes) == 1
         ):
@@ -1787,6 +1823,22 @@ class Calibrator:
                     self.cmp.set_carrier_tolerance(ctol)
                 cur_score = self.cmp.score(cur_feat)
                 N = cur_score.n_total
+                if len(accepted) == len(self.pre_effects) and not any(
+                    isinstance(a_, ToothWear) for a_ in accepted
+                ):
+                    # without a reference: the DTE mean on the updated machine (candidates_wear_contact.py)
+                    wear = self._wear_after_baseline_update(cur_score)
+                    if wear is not None:
+                        self.pre_effects.append(wear.effect)
+                        accepted.append(wear.effect)
+                        self._sig_cache.clear()
+                        self._sig_checked.clear()
+                        self.base_raw = cur_raw = self._raw(())
+                        self._refit_transfer(self._features(self.base_raw))
+                        cur_feat = self._features(cur_raw)
+                        cur_score = self.cmp.score(cur_feat)
+                        wear.error_after = float(cur_score.error)
+                        found.append(wear)
                 continue
             found.append(
                 FoundEffect(
