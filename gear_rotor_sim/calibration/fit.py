@@ -594,26 +594,24 @@ class Calibrator:
         if hit is None:
             # where the teeth separate: from the rattle amplitude (candidates_wear_rattle.py)
             hit = screen_wear_on_rattle_amplitude(self, score)
-        if hit is None:
-            return None
-        eff, sc, sig = hit
-        dbic, expl = _screen_gain(score, sc)
-        self.log(
-            f"DTE-mean screening: {eff.label} {eff.parameters()}: error {score.error:.3g} -> {sc.error:.3g}"
-        )
-        return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
+        return self._screened_wear(hit, score, "DTE-mean screening", with_before=True)
 
     def _wear_after_baseline_update(self, score: Score) -> FoundEffect | None:
         """Tooth wear from the DTE mean on the model whose baseline was just updated on this record
         (no reference; ``candidates_wear_contact.py``)."""
         hit = screen_wear_after_baseline_update(self, score)
+        return self._screened_wear(hit, score, "DTE-mean wear after the baseline update", with_before=False)
+
+    def _screened_wear(
+        self, hit: tuple[Effect, Score, float] | None, score: Score, what: str, with_before: bool
+    ) -> FoundEffect | None:
+        """A wear screen's hit ``(effect, score with it, sigma of the depth)`` as a screened finding."""
         if hit is None:
             return None
         eff, sc, sig = hit
         dbic, expl = _screen_gain(score, sc)
-        self.log(
-            f"DTE-mean wear after the baseline update: {eff.label} {eff.parameters()}: error {sc.error:.3g}"
-        )
+        before = f"{score.error:.3g} -> " if with_before else ""
+        self.log(f"{what}: {eff.label} {eff.parameters()}: error {before}{sc.error:.3g}")
         return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
 
     def _signature(self, effect: Effect) -> ModelFeatures:
