@@ -28,9 +28,8 @@ import math
 import numpy as np
 from scipy import signal
 
-from lumped_gearbox import model as mdl
 from lumped_gearbox.housing import housing_acceleration
-from lumped_gearbox.simulate import CHANNELS, Setup, channels
+from lumped_gearbox.simulate import CHANNELS, Setup, channels, integrate_from_rest
 
 #: RK4 steps per output sample of the data-acquisition chain (chosen by convergence, module docstring)
 DAQ_SUBSTEPS = 32
@@ -105,25 +104,7 @@ def acquire(
     n_pre = round(preroll_s * fs_fine)  # steps from static equilibrium to t = 0, as in run()
     if n_pre < half:
         raise ValueError(f"preroll_s: {preroll_s!r} shorter than the filter's half length {half * dt:.3g} s")
-    out = mdl.integrate(
-        -n_pre * dt,
-        dt,
-        1,
-        n_fine,
-        setup.static_state(),
-        np.zeros(8),
-        setup.geo,
-        setup.mass,
-        setup.kk,
-        setup.cc,
-        setup.load,
-        setup.fault,
-        setup.tooth_p,
-        setup.tooth_g,
-        n_pre - half,
-    )
-    if out.shape[0] != n_fine:
-        raise RuntimeError("lumped model diverged (non-finite state); reduce the time step (substeps)")
+    out = integrate_from_rest(setup, -n_pre * dt, dt, 1, n_fine, n_pre - half)
     fine = channels(setup, out, (np.arange(n_fine) - half) * dt)
     names = list(CHANNELS)
     if housing:

@@ -159,6 +159,33 @@ def build(
     )
 
 
+def integrate_from_rest(
+    setup: Setup, t0: float, dt: float, substeps: int, n_out: int, n_skip: int
+) -> np.ndarray:
+    """RK4 from static equilibrium at ``t0``: ``n_skip`` stored instants discarded, then ``n_out`` kept,
+    one every ``substeps`` steps of ``dt`` (rows: q, v, a (8 each), mesh force, mesh stiffness)."""
+    out = mdl.integrate(
+        t0,
+        dt,
+        substeps,
+        n_out,
+        setup.static_state(),
+        np.zeros(8),
+        setup.geo,
+        setup.mass,
+        setup.kk,
+        setup.cc,
+        setup.load,
+        setup.fault,
+        setup.tooth_p,
+        setup.tooth_g,
+        n_skip,
+    )
+    if out.shape[0] != n_out:
+        raise RuntimeError("lumped model diverged (non-finite state); reduce the time step (substeps)")
+    return out
+
+
 def run(
     setup: Setup,
     duration_s: float,
@@ -181,26 +208,7 @@ def run(
     n_out = round(duration_s * sample_rate_hz)
     n_skip = round(preroll_s * sample_rate_hz)
     dt = 1.0 / (sample_rate_hz * substeps)
-    q0 = setup.static_state()
-    out = mdl.integrate(
-        -n_skip / sample_rate_hz,
-        dt,
-        substeps,
-        n_out,
-        q0,
-        np.zeros(8),
-        setup.geo,
-        setup.mass,
-        setup.kk,
-        setup.cc,
-        setup.load,
-        setup.fault,
-        setup.tooth_p,
-        setup.tooth_g,
-        n_skip,
-    )
-    if out.shape[0] != n_out:
-        raise RuntimeError("lumped model diverged (non-finite state); reduce the time step (substeps)")
+    out = integrate_from_rest(setup, -n_skip / sample_rate_hz, dt, substeps, n_out, n_skip)
     return channels(setup, out, np.arange(n_out) / sample_rate_hz)
 
 

@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.search_rounds import mean_moved_further, verified_gain
 from gear_rotor_sim.faults import BASELINE_TYPES, Effect
 
 if TYPE_CHECKING:
@@ -145,10 +146,9 @@ def _updated(cal: Calibrator, pre: Sequence[Effect]) -> tuple[list[Effect], Any]
                 ver = cal._refine(f, [])
             except (ValueError, RuntimeError):
                 continue
-            rb, ra = np.abs(score.static_r), np.abs(ver.score.static_r)
-            if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
+            if mean_moved_further(score, ver.score) is not None:
                 continue
-            if score.balanced_chi2 - ver.score.balanced_chi2 - f.k * math.log(n) > thr:
+            if verified_gain(score, ver.score, f.k, n)[0] > thr:
                 took = (b, ver)
                 break
         if took is None:
@@ -261,15 +261,12 @@ def updated_baseline_step(
         except (ValueError, RuntimeError) as exc:
             cal.notes.append(f"{f.effect.label}: baseline update not fitted ({exc})")
             continue
-        dbic = cur_score.balanced_chi2 - ver.score.balanced_chi2 - f.k * math.log(n_features)
-        expl = (cur_score.balanced_chi2 - ver.score.balanced_chi2) / max(
-            cur_score.balanced_chi2 - n_features, 1e-12
-        )
-        rb, ra = np.abs(cur_score.static_r), np.abs(ver.score.static_r)
-        if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
+        dbic, expl = verified_gain(cur_score, ver.score, f.k, n_features)
+        off = mean_moved_further(cur_score, ver.score)
+        if off is not None:
             cal.notes.append(
                 f"{ver.effect.label}: baseline update not taken, it moves a channel mean that is "
-                f"{float(np.max(rb)):.3g} sigma off further away"
+                f"{off:.3g} sigma off further away"
             )
             continue
         if dbic <= thr:

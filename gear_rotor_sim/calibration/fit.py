@@ -614,6 +614,17 @@ class Calibrator:
         self.log(f"{what}: {eff.label} {eff.parameters()}: error {before}{sc.error:.3g}")
         return _screened(eff, score, sc, {"wear_depth_m": sig}, dbic, expl)
 
+    def _adopt_pre_effect(self, effect: Effect) -> tuple[Any, ModelFeatures, Score]:
+        """Make a screened ``effect`` part of the model: the new base run (raw), its features (transfer
+        slopes refitted on it) and its score."""
+        self.pre_effects.append(effect)
+        self._sig_cache.clear()
+        self._sig_checked.clear()
+        self.base_raw = self._raw(())
+        self._refit_transfer(self._features(self.base_raw))
+        feat = self._features(self.base_raw)
+        return self.base_raw, feat, self.cmp.score(feat)
+
     def _signature(self, effect: Effect) -> ModelFeatures:
         """Features of the response change of ``effect`` alone relative to the healthy model."""
         key = repr(effect)
@@ -1635,12 +1646,7 @@ class Calibrator:
         screened = self._static_screen(score0)
         score_b = score0
         if screened is not None:
-            self.pre_effects.append(screened.effect)
-            self._sig_cache.clear()
-            self._sig_checked.clear()
-            self.base_raw = self._raw(())
-            self._refit_transfer(self._features(self.base_raw))
-            score_b = self.cmp.score(self._features(self.base_raw))
+            score_b = self._adopt_pre_effect(screened.effect)[2]
         # a reference run (no effects wanted) fits the baseline sets alone; otherwise they compete
         # with the effects below, so that a fault is not absorbed into the baseline
         baseline_only = self.fit.max_effects == 0 and self.fit_baseline
@@ -1676,13 +1682,7 @@ class Calibrator:
         # with a reference's mesh stiffness held, the DTE mean gives the wear (candidates_wear_reference.py)
         wear = self._wear_screen(cur_score)
         if wear is not None:
-            self.pre_effects.append(wear.effect)
-            self._sig_cache.clear()
-            self._sig_checked.clear()
-            self.base_raw = cur_raw = self._raw(())
-            self._refit_transfer(self._features(self.base_raw))
-            cur_feat = self._features(cur_raw)
-            cur_score = self.cmp.score(cur_feat)
+            cur_raw, cur_feat, cur_score = self._adopt_pre_effect(wear.effect)
         accepted: list[Effect] = list(self.pre_effects)
         found: list[FoundEffect] = [f for f in (screened, wear) if f is not None]
         if found:
@@ -1827,14 +1827,8 @@ class Calibrator:
                     # without a reference: the DTE mean on the updated machine (candidates_wear_contact.py)
                     wear = self._wear_after_baseline_update(cur_score)
                     if wear is not None:
-                        self.pre_effects.append(wear.effect)
                         accepted.append(wear.effect)
-                        self._sig_cache.clear()
-                        self._sig_checked.clear()
-                        self.base_raw = cur_raw = self._raw(())
-                        self._refit_transfer(self._features(self.base_raw))
-                        cur_feat = self._features(cur_raw)
-                        cur_score = self.cmp.score(cur_feat)
+                        cur_raw, cur_feat, cur_score = self._adopt_pre_effect(wear.effect)
                         wear.error_after = float(cur_score.error)
                         found.append(wear)
                 continue

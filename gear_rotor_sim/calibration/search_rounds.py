@@ -48,6 +48,22 @@ if TYPE_CHECKING:
 MAX_EXAMINED = 3
 
 
+def verified_gain(before: Score, after: Score, k: int, n_features: int) -> tuple[float, float]:
+    """Delta BIC of a verified candidate (``k`` parameters) and the share of the excess it explains."""
+    dbic = before.balanced_chi2 - after.balanced_chi2 - k * math.log(n_features)
+    expl = (before.balanced_chi2 - after.balanced_chi2) / max(before.balanced_chi2 - n_features, 1e-12)
+    return dbic, expl
+
+
+def mean_moved_further(before: Score, after: Score) -> float | None:
+    """Largest channel-mean residual (sigma) of ``before`` if a mean more than 3 sigma off moves further
+    away in ``after``, else ``None``: a baseline scale must not do that (issue 11 item 3)."""
+    rb, ra = np.abs(before.static_r), np.abs(after.static_r)
+    if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
+        return float(np.max(rb))
+    return None
+
+
 class RoundLedger:
     """Evidence of the admissible candidates of one round for the runner-up comparison.
 
@@ -155,10 +171,7 @@ def examine_round(
         runner_up = ledger.runner_up(f)
         if ver.fallback is not None:
             ver = confirmed_or_fallback(cal, ver, f, cur_score, runner_up)
-        dbic = cur_score.balanced_chi2 - ver.score.balanced_chi2 - f.k * math.log(n_features)
-        expl = (cur_score.balanced_chi2 - ver.score.balanced_chi2) / max(
-            cur_score.balanced_chi2 - n_features, 1e-12
-        )
+        dbic, expl = verified_gain(cur_score, ver.score, f.k, n_features)
         ledger.verified(f, dbic)
         p_sep = _fit._logistic((dbic - runner_up) / 2) if np.isfinite(runner_up) else 1.0
         verdict = ""
@@ -166,11 +179,11 @@ def examine_round(
         if isinstance(ver.effect, BASELINE_TYPES):
             # a baseline scale must not move a significantly wrong channel mean further away
             # (issue 11 item 3): a stiffer mesh cannot explain a DTE mean that grew
-            rb, ra = np.abs(cur_score.static_r), np.abs(ver.score.static_r)
-            if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
+            off = mean_moved_further(cur_score, ver.score)
+            if off is not None:
                 cal.notes.append(
                     f"{ver.effect.label}: baseline update not taken, it moves a channel mean "
-                    f"that is {float(np.max(rb)):.3g} sigma off further away"
+                    f"that is {off:.3g} sigma off further away"
                 )
                 # not refused: a baseline set returns in the next round, so it still competes here
                 continue
