@@ -19,7 +19,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gear_rotor_sim.calibration.candidates_bearing import fit_force_and_share, fit_shaft_path_share
+from gear_rotor_sim.calibration.candidates_bearing import (
+    choose_share,
+    fit_force_and_share,
+    fit_force_per_share,
+    fit_shaft_path_share,
+)
 from gear_rotor_sim.calibration.features_bearing import anti_aliased_impacts
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
@@ -112,6 +117,23 @@ def test_share_grid_search_on_a_known_minimum() -> None:
     f, b, v, f1, v1 = fit_force_and_share(lambda x, s: (x - 120.0) ** 2 + 50.0 * (s - 0.3) ** 2, 100.0)
     assert f == pytest.approx(120.0, abs=0.2) and b == pytest.approx(0.3) and v == pytest.approx(0.0, abs=0.1)
     assert f1 == pytest.approx(120.0, abs=0.2) and v1 == pytest.approx(50.0 * 0.49, abs=0.1)
+
+
+def test_share_choice_takes_a_fitted_share_only_against_both_ends() -> None:
+    """Share 1 is the default; share 0 needs ``ln N`` over it; a share strictly between needs ``ln N``
+    over the end taken (Sec. 8.35). The tables are written by hand (force, envelope chi^2)."""
+    pen = 9.0
+    # the interior beats share 1 by 60 but the direct path alone by 5 only: the direct path
+    assert choose_share({0.0: (200.0, 65.0), 0.3: (230.0, 60.0), 1.0: (280.0, 120.0)}, pen) == 0.0
+    # the interior beats the direct path by more than the penalty: the interior share
+    assert choose_share({0.0: (200.0, 80.0), 0.3: (230.0, 60.0), 1.0: (280.0, 120.0)}, pen) == 0.3
+    # share 0 no better than share 1 (within the penalty): the interior is judged against share 1
+    assert choose_share({0.0: (200.0, 115.0), 0.5: (230.0, 100.0), 1.0: (280.0, 120.0)}, pen) == 0.5
+    assert choose_share({0.0: (200.0, 115.0), 0.5: (230.0, 115.0), 1.0: (280.0, 120.0)}, pen) == 1.0
+    # the grid search returns both ends whatever the grid asked for
+    table = fit_force_per_share(lambda x, s: (x - 120.0) ** 2 + 50.0 * (s - 0.3) ** 2, 100.0, (0.3,))
+    assert sorted(table) == [0.0, 0.3, 1.0]
+    assert table[0.0][1] == pytest.approx(4.5, abs=0.1) and table[0.3][0] == pytest.approx(120.0, abs=0.2)
 
 
 def test_shaft_path_share_scales_the_reaction_only() -> None:
