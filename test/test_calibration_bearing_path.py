@@ -24,6 +24,7 @@ from gear_rotor_sim.calibration.candidates_bearing import (
     fit_force_and_share,
     fit_force_per_share,
     fit_shaft_path_share,
+    fit_slip,
 )
 from gear_rotor_sim.calibration.features_bearing import anti_aliased_impacts
 from gear_rotor_sim.calibration.fit import Calibrator
@@ -134,6 +135,19 @@ def test_share_choice_takes_a_fitted_share_only_against_both_ends() -> None:
     table = fit_force_per_share(lambda x, s: (x - 120.0) ** 2 + 50.0 * (s - 0.3) ** 2, 100.0, (0.3,))
     assert sorted(table) == [0.0, 0.3, 1.0]
     assert table[0.0][1] == pytest.approx(4.5, abs=0.1) and table[0.3][0] == pytest.approx(120.0, abs=0.2)
+
+
+def test_slip_fit_takes_the_slip_of_the_smallest_envelope_chi2() -> None:
+    """``fit_slip`` minimises in the force for each slip's response and keeps the slip whose best chi^2
+    is smallest, whatever the order of the grid (responses stand in as labels here)."""
+    offset = {"a": 12.0, "b": 3.0, "c": 7.0}
+    best_force = {"a": 90.0, "b": 130.0, "c": 110.0}
+
+    def chi2(d: str, x: float) -> float:
+        return (x - best_force[d]) ** 2 / 100.0 + offset[d]
+
+    assert fit_slip(chi2, {0.015: "a", 0.01: "b", 0.02: "c"}, 100.0) == 0.01
+    assert fit_slip(chi2, {0.015: "c", 0.01: "a", 0.02: "b"}, 100.0) == 0.02
 
 
 def test_shaft_path_share_scales_the_reaction_only() -> None:

@@ -17,7 +17,9 @@ Rule (:func:`fit_shaft_path_share`, in the verification of an accepted bearing d
 response is split into the direct path and the shaft path (``BearingDefect.shaft_path_share`` 0 and
 1, one extra simulation), and the force is fitted to the envelope family (where a defect's impacts
 act) for each share ``beta`` in ``SHARE_GRID`` of the modelled shaft path, superposed (the response
-is linear in the impact force). The share is chosen by :func:`choose_share`: the direct path alone
+is linear in the impact force). The share is the grid's best if it beats share 1 by ``ln N``
+(Sec. 8.30); with ``FitSettings.bearing_slip_fit`` (opt-in) the slip is fitted on the direct path
+first (:func:`fit_slip`) and the share is chosen by :func:`choose_share`: the direct path alone
 (share 0) only if it improves the envelope chi^2 by more than ``ln N`` over the full shaft path
 (Schwarz's penalty for one parameter), a share strictly between 0 and 1 only if it improves it by
 ``ln N`` over the end taken (since session 14, docs/calibration.md Sec. 8.35); the defect at the
@@ -144,7 +146,9 @@ def choose_share(table: dict[float, tuple[float, float]], penalty: float) -> flo
     return taken
 
 
-def fit_shaft_path_share(cal: Any, e: BearingDefect, accepted: Sequence[Effect]) -> SharedPathFit:
+def fit_shaft_path_share(
+    cal: Any, e: BearingDefect, accepted: Sequence[Effect], slip_fit: bool = False
+) -> SharedPathFit:
     """Fit the force of the bearing defect ``e`` with the share of its modelled shaft path as a nuisance
     (module docstring), on the machine with the accepted effects ``accepted``.
 
@@ -156,6 +160,10 @@ def fit_shaft_path_share(cal: Any, e: BearingDefect, accepted: Sequence[Effect])
         The candidate at its fitted force (full shaft path).
     accepted : sequence of Effect
         Effects already in the model.
+    slip_fit : bool
+        Fit the slip on the direct path first (:func:`fit_slip`) and choose the share by
+        :func:`choose_share` (Sec. 8.35; ``FitSettings.bearing_slip_fit``, opt-in); False: the rule of
+        Sec. 8.30 (the best share of the grid, taken if it beats share 1 by ``ln N``).
 
     Returns
     -------
@@ -176,9 +184,13 @@ def fit_shaft_path_share(cal: Any, e: BearingDefect, accepted: Sequence[Effect])
     d_shaft = response(1.0, e.slip).combo(d_direct, -1.0)
     if path_ratio(cal.cmp, d_direct, d_shaft) < QUASI_STATIC_LIMIT:
         return SharedPathFit(e, 1.0, math.nan, math.nan, False)
-    directs = {float(e.slip): d_direct, **{float(s): response(0.0, s) for s in SLIP_GRID if s != e.slip}}
-    slip = fit_slip(lambda d, x: float(cal.cmp.score(f_prev.combo(d, x)).chi2["envelope"]), directs, force0)
-    if slip != e.slip:
+    slip = slip0
+    if slip_fit:
+        directs = {slip0: d_direct, **{float(s): response(0.0, s) for s in SLIP_GRID if s != slip0}}
+        slip = fit_slip(
+            lambda d, x: float(cal.cmp.score(f_prev.combo(d, x)).chi2["envelope"]), directs, force0
+        )
+    if slip != slip0:
         e = dataclasses.replace(e, slip=slip)
         d_direct = directs[slip]
         d_shaft = response(1.0, slip).combo(d_direct, -1.0)
@@ -192,7 +204,12 @@ def fit_shaft_path_share(cal: Any, e: BearingDefect, accepted: Sequence[Effect])
         return float(cal.cmp.score(feats).chi2["envelope"])
 
     table = fit_force_per_share(chi2, force0)
-    share = choose_share(table, math.log(max(cal.n_total, 2)))
+    penalty = math.log(max(cal.n_total, 2))
+    if slip_fit:
+        share = choose_share(table, penalty)
+    else:  # Sec. 8.30: the best share of the grid against share 1 only
+        best = min(table, key=lambda b: table[b][1])
+        share = best if best < 1.0 and table[1.0][1] - table[best][1] > penalty else 1.0
     force, val = table[share]
     force1, at_one = table[1.0]
     taken = share < 1.0 or slip != slip0

@@ -144,6 +144,10 @@ class FitSettings:
     #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
     #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
     bearing_shaft_path: bool = True
+    #: a bearing defect's slip fitted on its direct path and the share chosen against both ends
+    #: (``candidates_bearing.fit_slip``, ``choose_share``; Sec. 8.35); opt-in: with it the held-out
+    #: ball x0.6 passes without a reference and the rattle ball with one fails (+26 %)
+    bearing_slip_fit: bool = False
 
 
 @dataclass
@@ -1181,7 +1185,7 @@ class Calibrator:
         """The verified bearing defect ``ver`` with the share of its impact's modelled shaft path fitted
         as a nuisance (``candidates_bearing.py``); ``ver`` itself where the share does not beat the full
         path by ``ln N``, first on the superposed responses and then on a full simulation."""
-        sp = fit_shaft_path_share(self, ver.effect, accepted)
+        sp = fit_shaft_path_share(self, ver.effect, accepted, self.fit.bearing_slip_fit)
         if not sp.taken:
             return ver
         raw = self._raw((*accepted, sp.effect))
