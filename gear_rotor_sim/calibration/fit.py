@@ -146,7 +146,7 @@ class FitSettings:
     bearing_shaft_path: bool = True
     #: a bearing defect's slip fitted on its direct path and the share chosen against both ends
     #: (``candidates_bearing.fit_slip``, ``choose_share``; Sec. 8.35); opt-in: with it the held-out
-    #: ball x0.6 passes without a reference and the rattle ball with one fails (+26 %)
+    #: ball x0.6 passes without a reference and the rattle ball fails (+28 % / +26 %)
     bearing_slip_fit: bool = False
 
 
