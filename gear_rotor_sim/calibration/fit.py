@@ -69,7 +69,10 @@ from gear_rotor_sim.calibration.candidates_tooth_path import (
     low_order_shaft,
 )
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
-from gear_rotor_sim.calibration.candidates_wear_contact import screen_wear_after_baseline_update
+from gear_rotor_sim.calibration.candidates_wear_contact import (
+    screen_wear_after_baseline_update,
+    wear_depth_from_mean_in_round,
+)
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
@@ -155,6 +158,9 @@ class FitSettings:
     #: opt-in: a damaged tooth's path to the radial bearing channels a fitted nuisance in contact too
     #: (``candidates_tooth_path.py``, Sec. 8.35: helps at 4500 rpm, loses the x0.6 pinion tooth)
     tooth_path_in_contact: bool = False
+    #: without a reference: a wear candidate verified before any effect is accepted takes the DTE mean's
+    #: depth where the mean reads one (``candidates_wear_contact.py``, Sec. 8.34); False: the ranking's
+    wear_mean_in_round: bool = True
 
 
 @dataclass
@@ -1219,6 +1225,11 @@ class Calibrator:
             if isinstance(e, BearingDefect) and self.fit.bearing_shaft_path:
                 ver = self._bearing_path_share(ver, accepted)
             return ver
+        if isinstance(e, ToothWear) and self.fit.wear_mean_in_round:
+            # without a reference: the depth from the DTE mean where it reads one (candidates_wear_contact.py)
+            at_mean = wear_depth_from_mean_in_round(self, fit, accepted)
+            if at_mean is not None:
+                return at_mean
         if isinstance(e, ToothDamage) and not (
             self._path_mask(e) is not None and len(self.runner.cfg.meshes) == 1
         ):
