@@ -122,7 +122,7 @@ def test_share_grid_search_on_a_known_minimum() -> None:
 
 def test_share_choice_takes_a_fitted_share_only_against_both_ends() -> None:
     """Share 1 is the default; share 0 needs ``ln N`` over it; a share strictly between needs ``ln N``
-    over the end taken (Sec. 8.35). The tables are written by hand (force, envelope chi^2)."""
+    over the end taken (Sec. 8.36). The tables are written by hand (force, envelope chi^2)."""
     pen = 9.0
     # the interior beats share 1 by 60 but the direct path alone by 5 only: the direct path
     assert choose_share({0.0: (200.0, 65.0), 0.3: (230.0, 60.0), 1.0: (280.0, 120.0)}, pen) == 0.0

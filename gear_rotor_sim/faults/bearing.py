@@ -192,7 +192,7 @@ class BearingDefect(Effect):
     slip : float
         Relative standard deviation of the inter-impact interval (0.01-0.02 in real bearings). A
         calibration fits it on the defect's direct path (``calibration.candidates_bearing.fit_slip``,
-        docs/calibration.md Sec. 8.35).
+        docs/calibration.md Sec. 8.36).
     load_angle_rad : float, optional
         Direction of the bearing load (centre of the load zone) in the x-y plane, rad. Default: the
         direction of the bearing's static force on the housing in the model the defect acts on

@@ -1,9 +1,12 @@
 """Gear faults: eccentricity (run-out), localised tooth damage, uniform tooth wear, misalignment.
 
-* ``pinion_eccentricity`` / ``gear_eccentricity``: geometric run-out ``e`` of the pitch circle adds
-  ``e sin(theta_s + phi)`` to the transmission error (shaft order 1 of that gear and sidebands of the
-  mesh orders) and the rotating force ``m_g e Omega_s^2`` of the displaced gear mass at its node
-  (Randall 2011, Sec 2.2.1; Mohammed et al. 2009).
+* ``pinion_eccentricity`` / ``gear_eccentricity``: geometric run-out ``e`` of the pitch circle: the
+  wheel's centre runs ``d = e (cos, sin)(theta_s + phi)`` off its rotation centre. The same vector
+  moves the tooth profile, whose projection on the line of action ``V . d`` enters the mesh deflection
+  (shaft order 1 of that gear and sidebands of the mesh orders; Velex & Maatar 1996), and the mass
+  centre, a rotating force ``m_g Omega_s^2 d`` at its node (Randall 2011, Sec 2.2.1; Mohammed et al.
+  2009). docs/calibration.md Sec. 8.33: with an unrelated error ``e sin(theta_s + phi)`` the two
+  parts were 160 deg out of their physical relative phase on the pinion.
 * ``tooth_damage``: a root crack or chipped tooth lowers the mesh stiffness by the fraction
   ``depth`` of that tooth's share while it is engaged (Chaari et al. 2009; Mohammed et al. 2009):
   once-per-revolution modulation, sidebands around the mesh orders.
@@ -50,8 +53,10 @@ def check_mesh(cfg: RigConfig, mesh: int) -> bool:
 class GearEccentricity(Effect):
     """Geometric eccentricity (run-out) of the pinion or the gear.
 
-    Transmission error ``e sin(theta_s + phi)`` along the line of action, plus the rotating inertia
-    force ``m_g e Omega_s^2`` of the gear body displaced by ``e``.
+    The wheel's centre runs ``d = e (cos, sin)(theta_s + phi)`` off its rotation centre (``theta_s``
+    the signed shaft angle): the profile moved by ``d`` adds ``V . d`` to the mesh deflection (its
+    projection on the line of action, Eq 22), the mass centre moved by ``d`` gives the rotating
+    inertia force ``m_g Omega_s^2 d``.
 
     Parameters
     ----------
@@ -60,7 +65,8 @@ class GearEccentricity(Effect):
     eccentricity_m : float
         Run-out e, m.
     phase_rad : float
-        Angular position of the high point at shaft angle 0, rad.
+        Angular position of the high point at shaft angle 0 in the global x-y plane (the wheel's centre
+        offset points there), rad.
     mesh : int
         1-based mesh (order of ``meshes:`` in the rig).
     """
@@ -90,10 +96,25 @@ class GearEccentricity(Effect):
         m = system.meshes[self.mesh - 1]
         return (m.pinion_node0, m.pinion_shaft) if self.member == "pinion" else (m.gear_node0, m.gear_shaft)
 
-    def transmission_error(self, ctx: Any) -> np.ndarray | None:
+    def centre_offset(self, ctx: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The wheel's geometric (and mass) centre offset from its rotation centre, (x, y) in m.
+
+        The high point sits at the signed shaft angle plus ``phase_rad`` in the global x-y plane: the
+        same vector moves the tooth profile (:meth:`transmission_error`) and the body's mass centre
+        (:meth:`force_amplitudes`).
+        """
         _, shaft = self._gear(ctx.system)
-        theta = np.abs(ctx.shaft_angle[:, shaft])
-        return on_mesh(ctx, self.mesh, self.eccentricity_m * np.sin(theta + self.phase_rad), 0.0)
+        th = ctx.shaft_angle[:, shaft] + self.phase_rad
+        return self.eccentricity_m * np.cos(th), self.eccentricity_m * np.sin(th)
+
+    def transmission_error(self, ctx: Any) -> np.ndarray | None:
+        """``-V . d``: the profile moved by the centre offset ``d`` adds its projection on the line of
+        action to the mesh deflection ``delta = V q`` (Eq 22; Velex & Maatar 1996), and the effect's
+        error enters as ``delta_m = delta - e`` (Eqs 24-25)."""
+        node0, _ = self._gear(ctx.system)
+        v = np.asarray(ctx.system.meshes[self.mesh - 1].line_of_action)
+        dx, dy = self.centre_offset(ctx)
+        return on_mesh(ctx, self.mesh, -(v[6 * node0] * dx + v[6 * node0 + 1] * dy), 0.0)
 
     def external_forces(self, system: Any) -> np.ndarray | None:
         node0, _ = self._gear(system)
@@ -102,9 +123,9 @@ class GearEccentricity(Effect):
     def force_amplitudes(self, ctx: Any) -> np.ndarray | None:
         node0, shaft = self._gear(ctx.system)
         mass = float(np.asarray(ctx.system.M)[6 * node0, 6 * node0])
-        th = ctx.shaft_angle[:, shaft] + self.phase_rad
-        f = mass * self.eccentricity_m * ctx.shaft_speed[:, shaft] ** 2
-        return np.column_stack([f * np.cos(th), f * np.sin(th)])
+        dx, dy = self.centre_offset(ctx)
+        w2 = ctx.shaft_speed[:, shaft] ** 2
+        return np.column_stack([mass * w2 * dx, mass * w2 * dy])
 
 
 def tooth_share(u: np.ndarray, tooth0: int, teeth: int, contact_ratio: float) -> np.ndarray:
