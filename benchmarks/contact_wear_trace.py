@@ -57,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     if held:
         # the carriers' model-form tolerance after a baseline update, as in the calibration's rounds
         cal.cmp.set_carrier_tolerance(cal._carrier_floor(base, cal.cmp.score(base)))
-    print(f"carrier tolerance {cal.cmp.carrier_tolerance:.3g}", flush=True)
+    # no set held: the carriers keep the settings' tolerance (the nominal model's, as in round 0)
+    tol = getattr(cal.cmp, "carrier_tolerance", cal.settings.tolerance)
+    print(f"carrier tolerance {tol:.3g}", flush=True)
     c = dte_channel(list(cal.cmp.names), 1, 1)
     rows = []
     for h in args.depths_um:

@@ -38,14 +38,17 @@ the temperature, which the static screening fits first from the axial bearing fo
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from gear_rotor_sim.calibration.candidates_wear_reference import dte_mean_wear
+from gear_rotor_sim.faults import ToothWear
 
 if TYPE_CHECKING:
-    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.fit import Calibrator, CandidateFit
     from gear_rotor_sim.calibration.residual import Score
-    from gear_rotor_sim.faults import ToothWear
+    from gear_rotor_sim.faults import Effect
 
 
 def screen_wear_after_baseline_update(cal: Calibrator, score: Score) -> tuple[ToothWear, Score, float] | None:
@@ -58,3 +61,41 @@ def screen_wear_after_baseline_update(cal: Calibrator, score: Score) -> tuple[To
     if not cal.fit_baseline:
         return None
     return dte_mean_wear(cal, score)
+
+
+def wear_depth_from_mean_in_round(
+    cal: Calibrator, fit: CandidateFit, accepted: Sequence[Effect]
+) -> CandidateFit | None:
+    """The ranked wear candidate ``fit`` at the DTE mean's depth, where the mean reads one.
+
+    Without a held reference the reading above runs after a baseline update; a worn record whose wear
+    leads a round before any baseline set is taken (round 0) was left to the ranking's depth, which the
+    dynamic features set. Where the worn machine's teeth separate and the healthy model's do not, those
+    features are the separation response, whose onset the model's own mesh stiffness and damping set:
+    on the independent 6000 rpm record with 20 um of wear (the lumped teeth separating 40 % of the time)
+    the nominal FE model separates only from about 22 um and the ranking verified 27.6 um (+38 %), while
+    the DTE mean at unit gain stands 5.6 sigma above the model and reads 16.8 um (docs/calibration.md Sec.
+    8.34). So the reading runs wherever a wear candidate is verified while no effect has been accepted
+    (``accepted`` empty; the screened temperature is part of the model) and the healthy model stays in
+    contact: the same trigger, depth, profile-scale nuisance and BIC confirmation as after a baseline
+    update. Returns the verified fit (a full run at that depth; two parameters: depth and profile scale)
+    or None (no reading: the ranking's refinement goes on).
+    """
+    if not cal.fit_baseline or accepted or not isinstance(fit.effect, ToothWear):
+        return None
+    ranked = float(fit.effect.wear_depth_m)
+    hit = dte_mean_wear(cal, cal.cmp.score(cal._cur_feat))
+    if hit is None:
+        return None
+    eff, _, sd = hit
+    raw = cal._raw((eff,))
+    feats = cal._full_features(raw, eff)
+    cal.notes.append(
+        f"tooth_wear: depth {1e6 * eff.wear_depth_m:.3g} um from the DTE mean (profile scale "
+        f"{eff.profile_scale:.2g}; the ranking's basis runs gave {1e6 * ranked:.3g} um), verified in its "
+        "round (candidates_wear_contact.py)"
+    )
+    unc = {"wear_depth_m": sd}
+    return dataclasses.replace(
+        fit, effect=eff, raw=raw, score=cal.cmp.score(feats), k=2, uncertainty=unc, feats=feats
+    )

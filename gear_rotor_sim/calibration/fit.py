@@ -63,8 +63,16 @@ from gear_rotor_sim.calibration.candidates_tooth_dte import (
     refine_depth_by_dte,
     take_dte_depth,
 )
+from gear_rotor_sim.calibration.candidates_tooth_path import (
+    contact_tooth_path,
+    low_order_mesh_chi2,
+    low_order_shaft,
+)
 from gear_rotor_sim.calibration.candidates_wear import periodic_signature_present, wear_static_inconsistency
-from gear_rotor_sim.calibration.candidates_wear_contact import screen_wear_after_baseline_update
+from gear_rotor_sim.calibration.candidates_wear_contact import (
+    screen_wear_after_baseline_update,
+    wear_depth_from_mean_in_round,
+)
 from gear_rotor_sim.calibration.candidates_wear_rattle import screen_wear_on_rattle_amplitude
 from gear_rotor_sim.calibration.candidates_wear_reference import screen_wear_on_dte_mean
 from gear_rotor_sim.calibration.comb_families import comb_gain_by_family, narrow_comb_reason
@@ -144,6 +152,15 @@ class FitSettings:
     #: bearing defects: the share of the impact's modelled shaft path is a fitted nuisance in the
     #: verification (``candidates_bearing.py``, Sec. 8.30); False: the full internal pair as before
     bearing_shaft_path: bool = True
+    #: opt-in: in contact with a DTE the tooth and its two neighbours compared by the DTE's low orders of
+    #: the damaged wheel (``candidates_tooth_path.py``, Sec. 8.35); False: on the whole record
+    tooth_index_at_mesh: bool = False
+    #: opt-in: a damaged tooth's path to the radial bearing channels a fitted nuisance in contact too
+    #: (``candidates_tooth_path.py``, Sec. 8.35: helps at 4500 rpm, loses the x0.6 pinion tooth)
+    tooth_path_in_contact: bool = False
+    #: without a reference: a wear candidate verified before any effect is accepted takes the DTE mean's
+    #: depth where the mean reads one (``candidates_wear_contact.py``, Sec. 8.34); False: the ranking's
+    wear_mean_in_round: bool = True
 
 
 @dataclass
@@ -487,7 +504,8 @@ class Calibrator:
         held reference baseline (docs/calibration.md Sec. 8.17: a tooth must then gain at the mesh)."""
         mask = getattr(self.cmp, "fault_path", None)
         if mask is None:
-            return None
+            # in contact: a damaged tooth's path only (candidates_tooth_path.py, Sec. 8.35)
+            return getattr(self, "_tooth_path", None) if isinstance(e, ToothDamage) else None
         if isinstance(e, GearMisalignment):
             return misalignment_path(self.cmp.names)
         return mask if isinstance(e, ToothDamage) else None
@@ -1207,6 +1225,11 @@ class Calibrator:
             if isinstance(e, BearingDefect) and self.fit.bearing_shaft_path:
                 ver = self._bearing_path_share(ver, accepted)
             return ver
+        if isinstance(e, ToothWear) and self.fit.wear_mean_in_round:
+            # without a reference: the depth from the DTE mean where it reads one (candidates_wear_contact.py)
+            at_mean = wear_depth_from_mean_in_round(self, fit, accepted)
+            if at_mean is not None:
+                return at_mean
         if isinstance(e, ToothDamage) and not (
             self._path_mask(e) is not None and len(self.runner.cfg.meshes) == 1
         ):
@@ -1363,17 +1386,20 @@ class Calibrator:
         at_mesh = mesh_channels(self.cmp.names) if self._path_mask(e) is not None else None
         if at_mesh is not None and not at_mesh.any():
             at_mesh = None
+        # in contact, opt-in: by the DTE's low orders of the wheel (candidates_tooth_path.py, Sec. 8.35)
+        low = low_order_shaft(self, e) if at_mesh is None else None
         scored = []
         for t in teeth:
             cand = dataclasses.replace(e, tooth=t)
             raw = self._raw((*accepted, cand))
             f = self._full_features(raw, cand)
             # where the teeth separate the tooth comes from the channels at the mesh (fault_path.py)
-            v = (
-                channels_chi2(self.cmp, f, at_mesh)
-                if at_mesh is not None
-                else self.cmp.score(f).balanced_chi2
-            )
+            if low is not None:
+                v = low_order_mesh_chi2(self, f, low)
+            elif at_mesh is not None:
+                v = channels_chi2(self.cmp, f, at_mesh)
+            else:
+                v = self.cmp.score(f).balanced_chi2
             scored.append((v, t, cand))
         best = min(scored, key=lambda x: x[0])
         if best[1] != e.tooth:
@@ -1639,6 +1665,7 @@ class Calibrator:
         if self._at_rattle:
             # a worn machine stays on the healthy machine's rattle branch (candidates_wear_rattle.py)
             self.runner.grown_effects = (ToothWear,)
+        self._tooth_path = None if self._at_rattle else contact_tooth_path(self)
         self._refit_transfer(self._features(self.base_raw))
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total
