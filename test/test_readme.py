@@ -213,3 +213,17 @@ def test_readme_bash_commands_run(tmp_path):
 
 def test_readme_python_example_runs():
     run_python_blocks([t for lang, t in code_blocks(README) if lang == "python"])
+
+
+@pytest.mark.skipif(not (ROOT / "install" / "setup.bash").exists(), reason="run scripts/setup_env.sh first")
+def test_env_sh_sources_under_strict_mode():
+    """Scripts that run ``set -euo pipefail`` (benchmarks/detection.sh) can source scripts/env.sh.
+
+    colcon's ``install/setup.bash`` reads unset variables (``COLCON_TRACE``); env.sh turns ``-u`` off
+    around it and restores the caller's ``-u``.
+    """
+    script = (
+        'set -euo pipefail; . scripts/env.sh; case $- in *u*) ;; *) exit 3 ;; esac; python -c "import rclpy"'
+    )
+    res = _run(["bash", "-c", script], timeout=120)
+    assert res.returncode == 0, res.stderr[-2000:]
