@@ -21,7 +21,6 @@ import pytest
 
 from gear_rotor_sim.calibration.candidates_bearing import (
     choose_share,
-    fit_force_and_share,
     fit_force_per_share,
     fit_shaft_path_share,
     fit_slip,
@@ -115,7 +114,9 @@ def test_force_from_a_direct_path_impact_train(tmp_path: Path, shape: str) -> No
 
 def test_share_grid_search_on_a_known_minimum() -> None:
     """The grid search returns the minimum of a separable bowl and the force at share 1."""
-    f, b, v, f1, v1 = fit_force_and_share(lambda x, s: (x - 120.0) ** 2 + 50.0 * (s - 0.3) ** 2, 100.0)
+    table = fit_force_per_share(lambda x, s: (x - 120.0) ** 2 + 50.0 * (s - 0.3) ** 2, 100.0)
+    b = min(table, key=lambda k: table[k][1])
+    (f, v), (f1, v1) = table[b], table[1.0]
     assert f == pytest.approx(120.0, abs=0.2) and b == pytest.approx(0.3) and v == pytest.approx(0.0, abs=0.1)
     assert f1 == pytest.approx(120.0, abs=0.2) and v1 == pytest.approx(50.0 * 0.49, abs=0.1)
 

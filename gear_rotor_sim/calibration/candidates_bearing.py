@@ -108,19 +108,6 @@ def fit_force_per_share(
     return out
 
 
-def fit_force_and_share(
-    chi2: Any, force0: float, shares: Sequence[float] = SHARE_GRID
-) -> tuple[float, float, float, float, float]:
-    """Force and shaft-path share minimising ``chi2(force, share)`` over the grid
-    (:func:`fit_force_per_share`).
-
-    Returns ``(force, share, chi2_min, force_at_share_1, chi2_at_share_1)`` (share 1 is always tried).
-    """
-    table = fit_force_per_share(chi2, force0, shares)
-    share = min(table, key=lambda b: table[b][1])
-    return table[share][0], share, table[share][1], table[1.0][0], table[1.0][1]
-
-
 def choose_share(table: dict[float, tuple[float, float]], penalty: float) -> float:
     """The share a record supports, from ``{share: (force, chi2)}`` (:func:`fit_force_per_share`).
 

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gear_rotor_sim.calibration.fault_path import mesh_channels, path_channels
+from gear_rotor_sim.calibration.fault_path import mesh_channels, order_terms, path_channels
 
 if TYPE_CHECKING:
     from gear_rotor_sim.calibration.fit import Calibrator
@@ -102,12 +102,10 @@ def low_order_mesh_chi2(cal: Calibrator, feats: Any, wheel_shaft: int, top: int 
     (Sec. 8.35), and not the carrier shape or the mesh-mode placement that the higher orders carry.
     """
     cmp = cal.cmp
-    g = np.ones(cmp.nc)
     low = (cmp.shafts[wheel_shaft].orders <= top) & ~cmp.carriers(wheel_shaft)
     out = 0.0
     for c in np.flatnonzero(mesh_channels(cmp.names)):
-        m = cmp.order_gain(g, c, wheel_shaft) * feats.order[c][wheel_shaft]
-        v = np.abs(cmp.d_order[c][wheel_shaft] - m) ** 2 / cmp.order_sigma2(c, wheel_shaft, m)
+        v = order_terms(cmp, feats, c, wheel_shaft)
         out += 2.0 * float(np.sum(v[low & np.isfinite(v)]))
     return out
 

@@ -74,7 +74,7 @@ def wear_depth_from_mean_in_round(
     features are the separation response, whose onset the model's own mesh stiffness and damping set:
     on the independent 6000 rpm record with 20 um of wear (the lumped teeth separating 40 % of the time)
     the nominal FE model separates only from about 22 um and the ranking verified 27.6 um (+38 %), while
-    the DTE mean at unit gain stands 5.6 sigma above the model and reads 16.8 um (docs/calibration.md Sec.
+    the DTE mean at unit gain stands 5.06 sd above the model and reads 15.7 um (docs/calibration.md Sec.
     8.34). So the reading runs wherever a wear candidate is verified while no effect has been accepted
     (``accepted`` empty; the screened temperature is part of the model) and the healthy model stays in
     contact: the same trigger, depth, profile-scale nuisance and BIC confirmation as after a baseline

@@ -109,15 +109,20 @@ def mesh_channels(names: Sequence[str]) -> np.ndarray:
     return np.array([n.startswith("dte") or n.startswith("mesh") for n in names], dtype=bool)
 
 
+def order_terms(cmp: Any, feats: ModelFeatures, c: int, s: int) -> np.ndarray:
+    """Per-order normalised squared residual of channel ``c`` on shaft ``s`` (gains held at 1, no time
+    shift; left-out features are not finite)."""
+    m = cmp.order_gain(np.ones(cmp.nc), c, s) * feats.order[c][s]
+    return np.abs(cmp.d_order[c][s] - m) ** 2 / cmp.order_sigma2(c, s, m)
+
+
 def channels_chi2(cmp: Any, feats: ModelFeatures, mask: np.ndarray) -> float:
     """Order chi^2 of the channels in ``mask`` on every shaft (gains held at 1, no time shift; left-out
     features have no weight)."""
-    g = np.ones(cmp.nc)
     out = 0.0
     for c in np.flatnonzero(mask):
         for s in range(len(cmp.shafts)):
-            m = cmp.order_gain(g, c, s) * feats.order[c][s]
-            v = np.abs(cmp.d_order[c][s] - m) ** 2 / cmp.order_sigma2(c, s, m)
+            v = order_terms(cmp, feats, c, s)
             out += 2.0 * float(np.sum(v[np.isfinite(v)]))
     return out
 
@@ -131,13 +136,11 @@ def mesh_comb_gain_by_order(
     mask = mesh_channels(cmp.names)
     if not mask.any():
         return None
-    g = np.ones(cmp.nc)
     out = np.zeros(cmp.shafts[shaft].orders.size)
     k = ~cmp.carriers(shaft)
     for c in np.flatnonzero(mask):
         for f, sign in ((before, 1.0), (after, -1.0)):
-            m = cmp.order_gain(g, c, shaft) * f.order[c][shaft]
-            v = np.abs(cmp.d_order[c][shaft] - m) ** 2 / cmp.order_sigma2(c, shaft, m)
+            v = order_terms(cmp, f, c, shaft)
             out += sign * 2.0 * np.where(k & np.isfinite(v), v, 0.0)
     return out
 
