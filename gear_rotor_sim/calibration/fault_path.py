@@ -49,10 +49,21 @@ bearings and bring the model's path much nearer the machine's (fitted factors on
 pinion-tooth record about 0.4-0.5 in modulus with the 2000 rpm reference, against 0.05-0.07 without
 one before Sec. 8.17's change of the factor fit); the factor corrects what is left.
 
+A damaged tooth's path is fitted per band (``path_factors(bands=True)``, ``FitSettings.tooth_path_bands``;
+docs/calibration.md Sec. 8.37): one factor for the low orders and one for the sidebands ``h z +- j`` of
+each mesh harmonic ``h``. Between the bands lie the modes that shape the path (at 8000 rpm the FE
+model's mesh mode, 5.3-5.8 kHz, between the first harmonic's sidebands at 3.4-4.3 kHz and the
+second's at 7.3-8.2 kHz; the independent gearbox's at 6.4 kHz): measured on the independent 8000 rpm
+gear-tooth record against the held 2000 rpm reference, the fitted factors of ``bearing2_fx`` are
+0.14, 0.79 and 0.20 in modulus for the three bands, and with one factor per channel the bearing
+channels' comb kept a chi^2 of 8-42 per feature on the gear shaft (error ratio 0.527 against
+0.434 with the bands).
+
 Assumes: at least one channel at the mesh is measured (the DTE of the issue-6 contract); the
-bearing path changes the signature's amplitude, not its shape over the comb (one factor per
-channel). Not applied in contact, where the fitted gains and transfer slopes and the 5 % tolerance
-hold the path.
+bearing path changes the signature's amplitude, not its shape, within a band of ``+-6`` shaft orders
+around a mesh harmonic (a damaged tooth: one factor per band; a misaligned gear: one per channel).
+Not applied in contact, where the fitted gains and transfer slopes and the 5 % tolerance hold the
+path (unless ``FitSettings.tooth_path_in_contact``, ``candidates_tooth_path.py``).
 """
 
 from __future__ import annotations
@@ -180,10 +191,48 @@ def mesh_comb_gain_by_family(
     return {int(j): float(np.sum(gain[fam == j])) for j in np.unique(fam) if j > 0}
 
 
-def scale_channels(sig: ModelFeatures, a: np.ndarray) -> ModelFeatures:
+def order_bands(cmp: Any) -> list[np.ndarray]:
+    """Band of every analysed order, per shaft: 0 for the low orders (below the first mesh harmonic's
+    sidebands), ``h`` for the orders ``h z +- j`` around the mesh harmonic ``h`` (``z`` the shaft's
+    teeth; a shaft without a gear: all 0)."""
+    out = []
+    for sh in cmp.shafts:
+        out.append(np.rint(sh.orders / sh.teeth).astype(int) if sh.teeth else np.zeros(sh.orders.size, int))
+    return out
+
+
+def n_bands(cmp: Any) -> int:
+    """Number of path bands: the low orders and each analysed mesh harmonic."""
+    return 1 + max((int(b.max()) for b in order_bands(cmp) if b.size), default=0)
+
+
+def envelope_band_index(cmp: Any, c: int, nb: int) -> int:
+    """Path band whose factor a channel's envelope (band-passed) signal takes: the mesh harmonic nearest
+    the centre of the channel's envelope band (the low band if the channel has none or no mesh)."""
+    bands = getattr(cmp, "bands", None)
+    band = bands[c] if bands is not None and c < len(bands) else None
+    if band is None or not getattr(cmp, "mesh_hz", 0.0):
+        return 0
+    return int(np.clip(np.rint(0.5 * (band[0] + band[1]) / cmp.mesh_hz), 0, nb - 1))
+
+
+def scale_channels(sig: ModelFeatures, a: np.ndarray, cmp: Any = None) -> ModelFeatures:
     """``sig`` with the order and band features of channel ``c`` multiplied by ``a[c]`` (complex) and its
-    mean by ``|a[c]|`` (a path has no phase at zero frequency)."""
+    mean by ``|a[c]|`` (a path has no phase at zero frequency).
+
+    With banded factors (``a`` of shape ``(channels, bands)``, :func:`path_factors` with ``bands=True``;
+    ``cmp`` then needed) order ``k`` of a shaft takes the factor of its band (:func:`order_bands`), the
+    envelope signal that of :func:`envelope_band_index` and the mean that of the low band."""
     a = np.asarray(a)
+    if a.ndim == 2:
+        ob = order_bands(cmp)
+        nb = a.shape[1]
+        order = [
+            [a[c][np.minimum(ob[s], nb - 1)] * x for s, x in enumerate(xs)] for c, xs in enumerate(sig.order)
+        ]
+        env = [a[c, envelope_band_index(cmp, c, nb)] * x for c, x in enumerate(sig.analytic)]
+        static = sig.static * np.abs(a[:, 0]) if sig.static.size == a.shape[0] else sig.static
+        return ModelFeatures(order, env, static)
     return ModelFeatures(
         [[a[c] * x for x in xs] for c, xs in enumerate(sig.order)],
         [a[c] * x for c, x in enumerate(sig.analytic)],
@@ -192,10 +241,16 @@ def scale_channels(sig: ModelFeatures, a: np.ndarray) -> ModelFeatures:
 
 
 def _comb_terms(
-    cmp: Any, cur: ModelFeatures, sig: ModelFeatures, c: int, a: complex
+    cmp: Any,
+    cur: ModelFeatures,
+    sig: ModelFeatures,
+    c: int,
+    a: complex,
+    sel: Sequence[np.ndarray] | None = None,
 ) -> tuple[complex, float, float]:
-    """Weighted least-squares terms of channel ``c``'s comb with the weights taken at the model
-    ``m + a s``: ``sum w conj(s) (d - m)``, ``sum w |s|^2`` and the comb chi^2 at ``a``."""
+    """Weighted least-squares terms of channel ``c``'s comb (only the orders ``sel[s]`` of each shaft if
+    given) with the weights taken at the model ``m + a s``: ``sum w conj(s) (d - m)``, ``sum w |s|^2``
+    and the comb chi^2 at ``a``."""
     num, den, chi2 = 0j, 0.0, 0.0
     g = np.ones(cmp.nc)
     for s in range(len(cmp.shafts)):
@@ -204,6 +259,8 @@ def _comb_terms(
         ds = gs * sig.order[c][s]
         w = 1.0 / cmp.order_sigma2(c, s, m + a * ds)
         ok = np.isfinite(w) & ~cmp.carriers(s)
+        if sel is not None:
+            ok &= sel[s]
         r = cmp.d_order[c][s] - m
         num += complex(np.sum((w * np.conj(ds) * r)[ok]))
         den += float(np.sum((w * np.abs(ds) ** 2)[ok]))
@@ -217,7 +274,12 @@ def _capped(a: complex) -> complex:
 
 
 def path_factors(
-    cmp: Any, cur: ModelFeatures, sig: ModelFeatures, mask: np.ndarray, max_iter: int = MAX_ITER
+    cmp: Any,
+    cur: ModelFeatures,
+    sig: ModelFeatures,
+    mask: np.ndarray,
+    max_iter: int = MAX_ITER,
+    bands: bool = False,
 ) -> np.ndarray:
     """Transfer factor of each channel for the signature ``sig`` added to ``cur``.
 
@@ -246,50 +308,71 @@ def path_factors(
         Channels whose factor is fitted (:func:`path_channels`).
     max_iter : int
         Largest number of reweighted least-squares solutions per channel.
+    bands : bool
+        One factor per channel and path band (:func:`order_bands`: the low orders and the sidebands of
+        each mesh harmonic), each fitted on its band's comb alone; shape ``(channels, bands)``
+        (docs/calibration.md Sec. 8.37). Else one factor per channel, shape ``(channels,)``.
     """
+    if bands:
+        ob = order_bands(cmp)
+        nb = n_bands(cmp)
+        out = np.ones((cmp.nc, nb), dtype=complex)
+        for c in np.flatnonzero(mask):
+            for h in range(nb):
+                out[c, h] = _fit_factor(cmp, cur, sig, c, max_iter, [b == h for b in ob])
+        return out
     a = np.ones(cmp.nc, dtype=complex)
     for c in np.flatnonzero(mask):
-        num, den, chi2_one = _comb_terms(cmp, cur, sig, c, 1.0 + 0j)
-        best = (chi2_one, 1.0 + 0j)
-        ac = 1.0 + 0j
-        for _ in range(max_iter):
-            r = _capped(num / den) if den > 0 else 1.0 + 0j
-            num, den, chi2_r = _comb_terms(cmp, cur, sig, c, r)
-            if chi2_r < best[0]:
-                best = (chi2_r, r)
-            converged = abs(r - ac) <= REL_TOL * max(abs(r), abs(ac), 1e-12)
-            ac = r
-            if converged:
-                break
-        if best[0] > 0 and np.isfinite(best[0]):
-
-            def chi2(p: np.ndarray, c: int = c) -> float:
-                return _comb_terms(cmp, cur, sig, c, _capped(complex(p[0], p[1])))[2]
-
-            step = max(0.05 * abs(best[1]), 0.01)
-            x0 = np.array([best[1].real, best[1].imag])
-            res = minimize(
-                chi2,
-                x0,
-                method="Nelder-Mead",
-                options={
-                    "initial_simplex": x0 + np.array([[0.0, 0.0], [step, 0.0], [0.0, step]]),
-                    "xatol": REL_TOL * max(abs(best[1]), 0.01),
-                    "fatol": 1e-6 * best[0],
-                    "maxfev": 200,
-                },
-            )
-            if res.fun < best[0]:
-                best = (float(res.fun), _capped(complex(res.x[0], res.x[1])))
-        a[c] = best[1]
+        a[c] = _fit_factor(cmp, cur, sig, c, max_iter, None)
     return a
 
 
+def _fit_factor(
+    cmp: Any, cur: ModelFeatures, sig: ModelFeatures, c: int, max_iter: int, sel: Sequence[np.ndarray] | None
+) -> complex:
+    """The factor of channel ``c`` (on the orders ``sel``) of :func:`path_factors`: reweighted least
+    squares, then a simplex search of the chi^2 from the best of those and ``a = 1``."""
+    num, den, chi2_one = _comb_terms(cmp, cur, sig, c, 1.0 + 0j, sel)
+    best = (chi2_one, 1.0 + 0j)
+    ac = 1.0 + 0j
+    for _ in range(max_iter):
+        r = _capped(num / den) if den > 0 else 1.0 + 0j
+        num, den, chi2_r = _comb_terms(cmp, cur, sig, c, r, sel)
+        if chi2_r < best[0]:
+            best = (chi2_r, r)
+        converged = abs(r - ac) <= REL_TOL * max(abs(r), abs(ac), 1e-12)
+        ac = r
+        if converged:
+            break
+    if best[0] > 0 and np.isfinite(best[0]):
+
+        def chi2(p: np.ndarray) -> float:
+            return _comb_terms(cmp, cur, sig, c, _capped(complex(p[0], p[1])), sel)[2]
+
+        step = max(0.05 * abs(best[1]), 0.01)
+        x0 = np.array([best[1].real, best[1].imag])
+        res = minimize(
+            chi2,
+            x0,
+            method="Nelder-Mead",
+            options={
+                "initial_simplex": x0 + np.array([[0.0, 0.0], [step, 0.0], [0.0, step]]),
+                "xatol": REL_TOL * max(abs(best[1]), 0.01),
+                "fatol": 1e-6 * best[0],
+                "maxfev": 200,
+            },
+        )
+        if res.fun < best[0]:
+            best = (float(res.fun), _capped(complex(res.x[0], res.x[1])))
+    return best[1]
+
+
 def with_path(
-    cmp: Any, cur: ModelFeatures, feats: ModelFeatures, mask: np.ndarray
+    cmp: Any, cur: ModelFeatures, feats: ModelFeatures, mask: np.ndarray, bands: bool = False
 ) -> tuple[ModelFeatures, np.ndarray]:
     """Full-run features ``feats`` with the change from ``cur`` transferred to the bearing channels by
-    fitted factors: ``cur + a * (feats - cur)``. Returns the features and the factors."""
+    fitted factors: ``cur + a * (feats - cur)`` (``bands``: one factor per path band, :func:`path_factors`).
+    Returns the features and the factors."""
     sig = feats.combo(cur, -1.0)
-    a = path_factors(cmp, cur, sig, mask)
-    return cur.combo(scale_channels(sig, a), 1.0), a
+    a = path_factors(cmp, cur, sig, mask, bands=bands)
+    return cur.combo(scale_channels(sig, a, cmp), 1.0), a

@@ -162,6 +162,9 @@ class FitSettings:
     #: opt-in: a damaged tooth's path to the radial bearing channels a fitted nuisance in contact too
     #: (``candidates_tooth_path.py``, Sec. 8.35: helps at 4500 rpm, loses the x0.6 pinion tooth)
     tooth_path_in_contact: bool = False
+    #: a damaged tooth's path factors one per band (the low orders and the sidebands of each mesh
+    #: harmonic; ``fault_path.path_factors(bands=True)``, Sec. 8.37); False: one per channel as before
+    tooth_path_bands: bool = True
     #: without a reference: a wear candidate verified before any effect is accepted takes the DTE mean's
     #: depth where the mean reads one (``candidates_wear_contact.py``, Sec. 8.34); False: the ranking's
     wear_mean_in_round: bool = True
@@ -524,8 +527,13 @@ class Calibrator:
             f = f.combo(corr, 1.0)
         mask = self._path_mask(e)
         if mask is not None:
-            f, self._path_a = with_path(self.cmp, self._cur_feat, f, mask)
+            f, self._path_a = with_path(self.cmp, self._cur_feat, f, mask, self._banded(e))
         return f
+
+    def _banded(self, e: Effect | None) -> bool:
+        """Whether ``e``'s path factors are fitted per band (a damaged tooth with
+        ``FitSettings.tooth_path_bands``; ``fault_path.path_factors``)."""
+        return isinstance(e, ToothDamage) and self.fit.tooth_path_bands
 
     def _param_chi2(self, feats: ModelFeatures, e: Effect) -> float:
         """Objective of a candidate's main parameter: the balanced chi^2, or where ``e``'s path to some
@@ -866,7 +874,8 @@ class Calibrator:
                     shifted[key] = self.cmp.shifted(sigs[p], i / fm, analytic=not self.cmp.env_non_sync)
                 out = out.combo(shifted[key], wt)
             if mask is not None:
-                out = scale_channels(out, path_factors(self.cmp, cur, out, mask))
+                bands = self._banded(e)
+                out = scale_channels(out, path_factors(self.cmp, cur, out, mask, bands=bands), self.cmp)
             return out
 
         # tooth index: best over two depths (at one fixed depth the envelope penalty of an overshoot
@@ -934,8 +943,12 @@ class Calibrator:
         if mask is None:
             return
         factors = ", ".join(
-            f"{n} {a:.2g}" for n, a, m in zip(self.cmp.names, self._path_a, mask, strict=True) if m
+            f"{n} {'/'.join(f'{v:.2g}' for v in np.atleast_1d(a))}"
+            for n, a, m in zip(self.cmp.names, self._path_a, mask, strict=True)
+            if m
         )
+        if np.ndim(self._path_a) == 2:
+            factors += "; per band: low orders / each mesh harmonic's sidebands"
         self.notes.append(
             f"{e.label} at {at}: its response at these channels taken as the model's times a fitted "
             f"transfer factor ({factors}; fault_path.py): its parameters are set by the other channels"
@@ -963,7 +976,9 @@ class Calibrator:
         f = self._full_features(raw)
         mask = self._path_mask(e)
         if mask is not None:
-            f, self._path_a = with_path(self.cmp, self._full_features(self._raw(tuple(pre))), f, mask)
+            f, self._path_a = with_path(
+                self.cmp, self._full_features(self._raw(tuple(pre))), f, mask, self._banded(e)
+            )
         self._n_scatter = 0
         if self.rattle_rules and scatter_applies(self.cmp, self.base_contact_loss):
             f, self._n_scatter = self._tooth_scatter(f, raw - self._raw(tuple(pre)))
