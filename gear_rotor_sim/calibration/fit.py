@@ -52,7 +52,12 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from gear_rotor_sim.calibration.candidates_bearing import fit_shaft_path_share, share_note
-from gear_rotor_sim.calibration.candidates_misalignment import fit_gear_misalignment, misalignment_path
+from gear_rotor_sim.calibration.candidates_misalignment import (
+    axial_chi2,
+    fit_contact_width,
+    fit_gear_misalignment,
+    misalignment_path,
+)
 from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_applies,
     ratio_depth_in_contact,
@@ -168,6 +173,11 @@ class FitSettings:
     #: without a reference: a wear candidate verified before any effect is accepted takes the DTE mean's
     #: depth where the mean reads one (``candidates_wear_contact.py``, Sec. 8.34); False: the ranking's
     wear_mean_in_round: bool = True
+    #: a gear misalignment judged on the axial bearing forces, which carry its angle: its share of their
+    #: excess counts as its own family's in contact too, its angle is refined on their order chi^2, and
+    #: baseline sets (no axial line at the wheel's order 1) are not its runner-up
+    #: (``candidates_misalignment.py``, Sec. 8.38); False: as in session 14
+    misalignment_axial: bool = True
 
 
 @dataclass
@@ -542,6 +552,8 @@ class Calibrator:
         the shape of the model's response over the comb, which on the independent 8000 rpm record
         against the 2000 rpm reference pulled a pinion tooth's depth to 0.13 for 0.4 (the bearing
         forces' comb misfit 5.2e3 at depth 0.1, 5.3e4 at 0.3-0.5 with the factor fitted)."""
+        if isinstance(e, GearMisalignment) and self.fit.misalignment_axial:
+            return axial_chi2(self, feats)
         mask = self._path_mask(e)
         if mask is None:
             return self._chi2(feats)
@@ -1386,7 +1398,11 @@ class Calibrator:
                 return take_dte_depth(self, fit, dd, accepted, at_abs)
         if isinstance(eff, ToothDamage):
             self._tooth_notes(eff, f"{main.name} {xb:.3g}")
-        return dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
+        ver = dataclasses.replace(fit, effect=eff, raw=rb, score=self.cmp.score(fb), feats=fb)
+        if isinstance(eff, GearMisalignment) and self.fit.misalignment_axial and self._path_mask(eff) is None:
+            # in contact: the tilted contact's width a nuisance, the angle held (candidates_misalignment.py)
+            return fit_contact_width(self, ver, accepted)
+        return ver
 
     def _verify_tooth(self, e: ToothDamage, accepted: list[Effect]) -> ToothDamage:
         """The tooth and its two neighbours compared on full simulations at the fitted depth.
