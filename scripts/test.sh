@@ -13,4 +13,12 @@ echo "[test] ruff check"
 ruff check .
 ruff format --check . >/dev/null || { echo "[test] ruff format would change files:"; ruff format --check .; exit 1; }
 echo "[test] pytest"
-python -m pytest -q "$@"
+# Two workers (pytest-xdist), each test file whole on one worker so that its module fixtures are
+# computed once: the suite is single-threaded CPU work, mostly calibrations (docs/calibration.md
+# Sec. 8.39). PYTEST_WORKERS=0 runs it in one process.
+workers=${PYTEST_WORKERS:-2}
+xdist=()
+if [ "$workers" != 0 ] && python -c "import xdist" 2>/dev/null; then
+  xdist=(-n "$workers" --dist loadfile)
+fi
+python -m pytest -q "${xdist[@]}" "$@"

@@ -13,6 +13,64 @@ from __future__ import annotations
 
 import os
 
-if "ROS_DOMAIN_ID" not in os.environ:
-    os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
+import pytest
+
+# Under pytest-xdist (``scripts/test.sh`` runs two workers) each worker is a test session of its own:
+# a domain this file chose in the controlling process is inherited by the workers and chosen again
+# there, so that two workers' node tests do not see each other either.
+_OWN = "GEAR_ROTOR_SIM_TEST_ROS_DOMAIN"
+if "ROS_DOMAIN_ID" not in os.environ or (
+    os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get(_OWN) == os.environ["ROS_DOMAIN_ID"]
+):
+    os.environ["ROS_DOMAIN_ID"] = os.environ[_OWN] = str(1 + os.getpid() % 100)
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+
+# ------------------------------------------------------------------ shared calibrations (test time)
+# Calibrations of the same independent record with the same settings, asked for by tests in several
+# files, are run once per test session (docs/calibration.md Sec. 8.39). Each test still asserts its
+# own criteria on the shared result; the result objects are only read.
+
+#: the 0.6 s ``lumped_gearbox`` records shared between test files: (speed rpm, temperature C, faults,
+#: seed), as test_calibration_independent_diagnosis.py made them
+SHARED_RECORDS = {
+    "pinion_tooth": (3000.0, 25.0, ("tooth_damage:wheel=pinion,tooth=7,depth=0.4",), 7),
+    "healthy_2000": (2000.0, 25.0, (), 5),
+}
+SHARED_DURATION_S = 0.6
+
+
+@pytest.fixture(scope="session")
+def shared_records(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """Paths of :data:`SHARED_RECORDS`, written once per session."""
+    from lumped_gearbox import make_record, write_record
+
+    root = tmp_path_factory.mktemp("shared_records")
+    return {
+        tag: write_record(
+            root / f"{tag}.csv", make_record(sp, tc, list(f), duration_s=SHARED_DURATION_S, seed=seed)
+        )
+        for tag, (sp, tc, f, seed) in SHARED_RECORDS.items()
+    }
+
+
+@pytest.fixture(scope="session")
+def pinion_tooth_calibration(shared_records: dict):
+    """``Calibrator(load_measurement(record)).run()`` of the shared pinion-tooth record (tooth 7,
+    depth 0.4, 3000 rpm, no reference): read by test_calibration_dte_depth.py and
+    test_calibration_independent_diagnosis.py."""
+    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.measurement import load_measurement
+
+    return Calibrator(load_measurement(shared_records["pinion_tooth"])).run()
+
+
+@pytest.fixture(scope="session")
+def reference_2000(shared_records: dict):
+    """The machine's baseline fitted on the shared healthy 2000 rpm record (``--baseline``): read by
+    test_calibration_independent_diagnosis.py and test_calibration_wear_rattle.py."""
+    from gear_rotor_sim.calibration.baseline import fit_reference_baseline
+    from gear_rotor_sim.calibration.measurement import load_measurement
+
+    path = shared_records["healthy_2000"]
+    return fit_reference_baseline(load_measurement(path), source=str(path))

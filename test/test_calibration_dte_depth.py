@@ -83,17 +83,13 @@ def test_reading_stays_on_the_rising_branch() -> None:
 
 
 @pytest.mark.slow
-def test_pinion_tooth_depth_from_the_dte_comb_on_an_independent_record(tmp_path) -> None:
+def test_pinion_tooth_depth_from_the_dte_comb_on_an_independent_record(pinion_tooth_calibration) -> None:
     """Pinion tooth 7 at depth 0.4 on a 0.6 s ``lumped_gearbox`` record at 3000 rpm (the records of
     test_calibration_independent_diagnosis.py): named first, the depth from the DTE comb within 10 %
     (the sideband-ratio depth it replaces read 0.451, +13 %; the absolute features 0.275), the error
-    at least halved."""
-    from gear_rotor_sim.calibration.fit import Calibrator
-    from gear_rotor_sim.calibration.measurement import load_measurement
-    from lumped_gearbox import make_record, write_record
-
-    rec = make_record(3000.0, 25.0, ["tooth_damage:wheel=pinion,tooth=7,depth=0.4"], duration_s=0.6, seed=7)
-    r = Calibrator(load_measurement(write_record(tmp_path / "pinion_tooth.csv", rec))).run()
+    at least halved. The calibration is the session's shared one (``conftest.pinion_tooth_calibration``:
+    ``Calibrator(load_measurement(record)).run()`` of that record, seed 7)."""
+    r = pinion_tooth_calibration
     assert r.effects and r.effects[0].label == "tooth_damage@pinion", [
         (e.label, e.parameters) for e in r.effects
     ]

@@ -40,19 +40,18 @@ def _record(root: Path, tag: str, speed: float, temp: float, faults: list[str], 
 
 
 @pytest.fixture(scope="module")
-def records(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+def records(tmp_path_factory: pytest.TempPathFactory, shared_records: dict[str, Path]) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("independent")
+    # the pinion-tooth and healthy 2000 rpm records are the session's (conftest.SHARED_RECORDS: the same
+    # speeds, faults, seeds and length as made here), calibrated once for this file and others
     return {
+        **shared_records,
         "healthy_25": _record(root, "healthy_25", 3000.0, 25.0, [], 1),
         "healthy_125": _record(root, "healthy_125", 3000.0, 125.0, [], 2),
         "gear_tooth": _record(
             root, "gear_tooth", 3000.0, 25.0, ["tooth_damage:wheel=gear,tooth=5,depth=0.4"], 3
         ),
-        "pinion_tooth": _record(
-            root, "pinion_tooth", 3000.0, 25.0, ["tooth_damage:wheel=pinion,tooth=7,depth=0.4"], 7
-        ),
         "temperature": _record(root, "temperature", 3000.0, 25.0, ["temperature_offset:offset_c=60"], 4),
-        "healthy_2000": _record(root, "healthy_2000", 2000.0, 25.0, [], 5),
         "wear": _record(root, "wear", 3000.0, 25.0, ["tooth_wear:wear_depth_m=20e-6"], 6),
     }
 
@@ -85,10 +84,11 @@ def test_gear_tooth_damage_named_first_with_wheel_and_tooth(records) -> None:
     _assert_mesh_scale_is_the_ratio_of_the_two_models(r)
 
 
-def test_pinion_tooth_depth_from_the_sideband_ratios_without_a_reference(records) -> None:
+def test_pinion_tooth_depth_from_the_sideband_ratios_without_a_reference(pinion_tooth_calibration) -> None:
     """Pinion tooth 7, depth 0.4 (docs/calibration.md Sec. 8.10; measured 0.451, +13 %, mesh x1.306;
-    from the absolute features 0.275)."""
-    r = _calibrate(records["pinion_tooth"])
+    from the absolute features 0.275). ``_calibrate(records["pinion_tooth"])``, run once per session
+    (``conftest.pinion_tooth_calibration``)."""
+    r = pinion_tooth_calibration
     assert r.effects and r.effects[0].label == "tooth_damage@pinion", [
         (e.label, e.parameters) for e in r.effects
     ]
@@ -126,11 +126,10 @@ def test_temperature_offset_from_the_static_content(records) -> None:
 
 
 @pytest.fixture(scope="module")
-def reference(records):
-    """Baseline of the machine fitted on its healthy 2000 rpm record (``--baseline``)."""
-    return fit_reference_baseline(
-        load_measurement(records["healthy_2000"]), source=str(records["healthy_2000"])
-    )
+def reference(reference_2000):
+    """Baseline of the machine fitted on its healthy 2000 rpm record (``--baseline``), once per session
+    (``conftest.reference_2000``: ``fit_reference_baseline`` of ``records["healthy_2000"]``)."""
+    return reference_2000
 
 
 @pytest.fixture(scope="module")

@@ -75,10 +75,12 @@ def test_grown_start_is_whole_hunting_periods() -> None:
 
 
 @pytest.mark.slow
-def test_worn_rattle_record_is_not_read_as_a_damaged_tooth_against_a_reference(tmp_path) -> None:
+def test_worn_rattle_record_is_not_read_as_a_damaged_tooth_against_a_reference(
+    tmp_path, reference_2000
+) -> None:
     """1 s lumped records at 8000 rpm diagnosed against a healthy 2000 rpm reference (``--baseline``,
-    the reference fitted here, at 64 steps per mesh: mesh x1.21, damping x1.0): the worn record (20 um)
-    names no tooth, and the healthy record claims nothing.
+    the reference fitted once per session, at 64 steps per mesh: mesh x1.21, damping x1.0): the worn
+    record (20 um) names no tooth, and the healthy record claims nothing.
 
     Against that reference a pinion tooth (tooth 11, depth 0.188) took the worn record's rattle
     components (error 3.38 -> 2.70): its comb gain was broad over the channels (families 1-6: 542,
@@ -87,13 +89,12 @@ def test_worn_rattle_record_is_not_read_as_a_damaged_tooth_against_a_reference(t
     left out, -174) and the fundamental came from the node-5 accelerations. The family rules now hold
     at the channels at the mesh too (docs/calibration.md Sec. 8.21; measured: nothing claimed,
     3.38 -> 3.35)."""
-    from gear_rotor_sim.calibration.baseline import fit_reference_baseline
     from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.calibration.measurement import load_measurement
     from lumped_gearbox import make_record, write_record
 
-    ref = write_record(tmp_path / "h2000.csv", make_record(2000.0, 25.0, [], duration_s=0.6, seed=5))
-    reference = fit_reference_baseline(load_measurement(ref), source=str(ref))
+    # the 2000 rpm reference (0.6 s, seed 5) fitted once per session (conftest.reference_2000)
+    reference = reference_2000
     worn = write_record(
         tmp_path / "wear.csv",
         make_record(SPEED_RPM, 25.0, ["tooth_wear:wear_depth_m=20e-6"], duration_s=1.0, seed=31),

@@ -113,6 +113,34 @@ def test_wheel_orders_reject_bad_input():
         wheel_orders(t, np.ones(99), 10.0, 3)
 
 
+def test_wheel_orders_memo_returns_the_first_solution_and_tells_inputs_apart():
+    """The memo of repeated solves (``misalignment_force._ORDERS``, docs/calibration.md Sec. 8.39): a
+    repeated call returns the first solution bit for bit, a caller changing its copy does not change
+    the stored one, and a force, a shaft frequency or an order count differing anywhere is solved anew."""
+    from gear_rotor_sim.faults import misalignment_force as mf
+
+    fs, f_s = 4000.0, 25.0
+    t = np.arange(1600) / fs  # ten revolutions
+    th = 2 * np.pi * f_s * t
+    x = 2900.0 + 40.0 * np.cos(3 * th + 0.2) + 7.0 * np.sin(11 * th)
+    mf._ORDERS.clear()
+    first = wheel_orders(t, x, f_s, 20)
+    assert len(mf._ORDERS) == 1
+    kept = first.copy()
+    first[:] = 0.0  # the caller's copy
+    again = wheel_orders(t, x, f_s, 20)
+    assert len(mf._ORDERS) == 1
+    np.testing.assert_array_equal(again, kept)
+    mf._ORDERS.clear()
+    np.testing.assert_array_equal(wheel_orders(t, x, f_s, 20), kept)  # solved anew: the same bits
+    y = x.copy()
+    y[977] += 1e-6  # one sample, 3e-10 of the force
+    moved = wheel_orders(t, y, f_s, 20)
+    assert len(mf._ORDERS) == 2 and not np.array_equal(moved, kept)
+    assert not np.array_equal(wheel_orders(t, x, 1.0001 * f_s, 20), kept)
+    assert wheel_orders(t, x, f_s, 19).shape == (20,) and len(mf._ORDERS) == 4
+
+
 def test_mean_mesh_force_is_the_torque_balance_and_one_pass_is_the_fixed_point(rig):
     """A full simulation at 3000 rpm (teeth in contact), 1 mrad on the gear: the run's mean mesh force
     equals ``T / r_b`` (the gear's torque balance), and a second pass (the mesh force of a run with the

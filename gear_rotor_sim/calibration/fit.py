@@ -488,6 +488,8 @@ class Calibrator:
         self.notes: list[str] = []
         #: what the rattle wear rule read, claimed or not (``candidates_wear_rattle``); None if not run
         self.rattle_wear_reading: dict[str, Any] | None = None
+        #: a damaged tooth's path in contact (opt-in ``tooth_path_in_contact``); set by ``run``
+        self._tooth_path: np.ndarray | None = None
         #: baseline parameter sets in force (fixed when given, else fitted on this record first)
         self.baseline: list[Effect] = list(baseline or [])
         self.fit_baseline = baseline is None
@@ -522,7 +524,7 @@ class Calibrator:
         mask = getattr(self.cmp, "fault_path", None)
         if mask is None:
             # in contact: a damaged tooth's path only (candidates_tooth_path.py, Sec. 8.35)
-            return getattr(self, "_tooth_path", None) if isinstance(e, ToothDamage) else None
+            return self._tooth_path if isinstance(e, ToothDamage) else None
         if isinstance(e, GearMisalignment):
             return misalignment_path(self.cmp.names)
         return mask if isinstance(e, ToothDamage) else None
