@@ -138,6 +138,10 @@ def node_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
     try:
         probe.wait_subscribers(STARTUP_TIMEOUT_S)
         assert client.wait_for_service(timeout_sec=STARTUP_TIMEOUT_S), "set_faults service not found"
+        # the latched truth holds the initial fault list only until the first request: a fault-state
+        # subscription matched after that request (discovery under load; CI with two pytest workers)
+        # would see the request's state first and miss the initial one
+        wait_for(lambda: len(states) > 0, STARTUP_TIMEOUT_S, "the initial fault state")
         probe.wait_sim_time(STEP_S, STARTUP_TIMEOUT_S)
         for text, field in BAD:
             out["bad"].append((field, *_call(probe, client, text)))
