@@ -23,11 +23,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
-import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -62,18 +59,12 @@ def reference(out: Path, duration_s: float) -> Path:
 
 
 def run_once(csv: Path, baseline: Path | None) -> tuple[float, float, str]:
-    """CPU (s), wall (s) and stdout of one ``calibrate --json`` subprocess."""
-    cmd = [sys.executable, "-m", "gear_rotor_sim.cli", "calibrate", str(csv), "--json"]
-    if baseline is not None:
-        cmd += ["--baseline", str(baseline)]
-    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.perf_counter() - t
-    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if p.returncode != 0:
-        raise RuntimeError(f"calibrate {csv} failed: {p.stderr[-2000:]}")
-    return (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime), wall, p.stdout
+    """CPU (s), wall (s) and the JSON report of one ``calibrate --json`` subprocess
+    (``calibration_independent.calibrate``, which adds ``wall_s`` / ``cpu_s`` to the report)."""
+    d = ci.calibrate(csv, baseline)
+    if d.get("failed"):
+        raise RuntimeError(f"calibrate {csv} failed: {d['stderr']}")
+    return d["cpu_s"], d["wall_s"], json.dumps(d, indent=1)
 
 
 def differences(a: Any, b: Any, path: str = "") -> list[str]:
