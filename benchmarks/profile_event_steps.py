@@ -1,0 +1,262 @@
+"""Where the gear kernel's time goes at 20000 rpm, by source line (perf samples mapped by gdb).
+
+Issue 13 (docs/solver.md, "Session 16"): on a chunk captured from ``Simulator.advance`` (paper
+gearbox, 25 C, DTE only, default reduced basis) the kernel runs 0.22 us per step with the events
+located and 0.09 us without; this script says where.
+
+``capture PATH``: the longest ``run_chunk_gear`` call of a 0.05 s ``advance`` after 0.3 s
+(``bench_solver._capture_chunk``), pickled.
+
+``loop PATH --seconds S``: that call repeated on fresh copies of its arguments for ``S`` seconds
+(prints ``ready PID`` once warm).
+
+``profile PATH``: runs ``loop`` in a child compiled with ``NUMBA_DEBUGINFO=1`` (its own numba cache
+directory, so the debug build does not replace the project's cached kernels), samples it with
+``perf record`` (user space, the child's PID) and maps every sampled instruction address to its
+function and source line with ``gdb`` attached to the child (numba registers its objects through
+LLVM's GDB JIT interface). Prints the share of the samples per function (shared libraries: libm's
+``sin``/``cos``/``exp``) and per line of ``gear_kernel.py``, grouped by the parts of the step
+(``--top`` lines). The debug build is the optimised code plus line tables; its time per step is
+printed so that it can be compared with the project's build.
+
+Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/profile_event_steps.py capture /tmp/c20k.pkl``
+then ``... profile /tmp/c20k.pkl`` (about a minute; needs ``perf`` and ``gdb``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import copy
+import itertools
+import os
+import pickle
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+KERNEL_FILE = "gear_kernel.py"
+
+
+def capture(path: str, rpm: float, cutoff: object) -> None:
+    """Pickle the arguments of the longest kernel call of a 0.05 s ``advance`` (DTE only)."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from bench_solver import _capture_chunk
+
+    from gear_rotor_sim.examples import paper_gearbox
+
+    args = _capture_chunk(paper_gearbox(), rpm, ["dte"], cutoff)
+    with open(path, "wb") as fh:
+        pickle.dump(args, fh)
+    print(f"captured {args[4][0].shape[0] - 1} steps at {rpm:.0f} rpm -> {path}")
+
+
+def loop(path: str, seconds: float) -> None:
+    """Run the captured call repeatedly (fresh copies of its arguments) for ``seconds``."""
+    from gear_rotor_sim.solver import gear_kernel
+
+    with open(path, "rb") as fh:
+        args = pickle.load(fh)
+    n = args[4][0].shape[0] - 1
+    gear_kernel.run_chunk_gear(*copy.deepcopy(args))  # compile or load
+    cpus = []
+    print(f"ready {os.getpid()}", flush=True)
+    t_end = time.perf_counter() + seconds
+    while time.perf_counter() < t_end:
+        a = copy.deepcopy(args)
+        c0 = time.process_time()
+        out = gear_kernel.run_chunk_gear(*a)
+        cpus.append(time.process_time() - c0)
+    print(
+        f"done {len(cpus)} runs, {1e6 * float(np.median(cpus)) / n:.3f} us per step (CPU median), "
+        f"{out[3] / n:.3f} committed sub-steps per step",
+        flush=True,
+    )
+
+
+def _gdb_lines(pid: int, addrs: list[int]) -> dict[int, tuple[str, int, str]]:
+    """(function, offset in it, 'file:line' or '?') of each address, by ``gdb -p PID -batch``."""
+    with tempfile.NamedTemporaryFile("w", suffix=".gdb", delete=False) as fh:
+        for a in addrs:
+            fh.write(f"echo @@{a:#x}\\n\ninfo symbol {a:#x}\ninfo line *{a:#x}\n")
+        cmd = fh.name
+    res = subprocess.run(
+        ["gdb", "-p", str(pid), "-batch", "-nx", "-x", cmd], capture_output=True, text=True, timeout=900
+    )
+    os.unlink(cmd)
+    out: dict[int, tuple[str, int, str]] = {}
+    cur = None
+    for line in res.stdout.splitlines():
+        if line.startswith("@@"):
+            cur = int(line[2:], 16)
+            out[cur] = ("?", -1, "?")
+        elif cur is not None:
+            f, off, ln = out[cur]
+            m = re.match(r"(\S+) \+ (\d+) in section", line)
+            if m and f == "?":
+                f, off = _short(m.group(1)), int(m.group(2))
+            m = re.match(r'Line (\d+) of "([^"]+)"', line)
+            if m and ln == "?":
+                ln = f"{os.path.basename(m.group(2))}:{m.group(1)}"
+            out[cur] = (f, off, ln)
+    return out
+
+
+def _short(fn: str) -> str:
+    """The Python name in a numba symbol (``...11gear_kernel9_run_loopB3v22...`` -> ``_run_loop``)."""
+    m = re.search(r"(?:gear_kernel|kernels)(\d+)", fn)
+    if m is None:
+        return fn[:60]
+    n = int(m.group(1))
+    return fn[m.end() : m.end() + n]
+
+
+def profile(path: str, seconds: float, top: int, groups: list[tuple[str, int, int]], debuginfo: bool) -> None:
+    env = dict(os.environ)
+    if debuginfo:  # line tables; its own cache directory (the project's cached kernels stay as they are)
+        env.update(NUMBA_DEBUGINFO="1", NUMBA_CACHE_DIR=tempfile.mkdtemp(prefix="nb_dbg_"))
+    child = subprocess.Popen(
+        [sys.executable, __file__, "loop", path, "--seconds", str(seconds + 600.0)],
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert child.stdout is not None
+    pid = int(child.stdout.readline().split()[1])
+    data = tempfile.mktemp(suffix=".perf")
+    subprocess.run(
+        ["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-p", str(pid), "-o", data, "--", "sleep",
+         str(seconds)],
+        check=True,
+        capture_output=True,
+    )  # fmt: skip
+    rep = subprocess.run(
+        ["perf", "script", "-i", data, "-F", "ip,sym,dso"], capture_output=True, text=True, check=True
+    ).stdout
+    os.unlink(data)
+    ips: collections.Counter[int] = collections.Counter()
+    lib: collections.Counter[str] = collections.Counter()
+    total = 0
+    for ln in rep.splitlines():
+        parts = ln.split()
+        if not parts:
+            continue
+        total += 1
+        dso = parts[-1]
+        if any(k in dso for k in ("unknown", "anon", "JIT", "perf-")):
+            ips[int(parts[0], 16)] += 1
+        else:
+            lib[f"{os.path.basename(dso.strip('()'))}:{' '.join(parts[1:-1]).split('+')[0]}"] += 1
+    where = _gdb_lines(pid, sorted(ips))
+    child.terminate()
+    child.wait(timeout=60)
+    by_fn: collections.Counter[str] = collections.Counter()
+    by_line: collections.Counter[str] = collections.Counter()
+    blocks: dict[str, collections.Counter[int]] = collections.defaultdict(collections.Counter)
+    extent: dict[str, int] = collections.defaultdict(int)
+    for ip, c in ips.items():
+        fn, off, ln = where.get(ip, ("?", -1, "?"))
+        by_fn[fn] += c
+        by_line[ln] += c
+        if off >= 0:
+            blocks[fn][off // 2048] += c
+            extent[fn] = max(extent[fn], off)
+    for k, c in lib.items():
+        by_fn[k] += c
+    build = "debug build: line tables" if debuginfo else "the project build"
+    print(f"\n{total} samples ({build}); by function:")
+    for k, c in by_fn.most_common(12):
+        print(f"  {100.0 * c / total:6.2f} %  {k}")
+    for fn, bl in blocks.items():
+        if sum(bl.values()) < 0.1 * total:
+            continue
+        n90, acc = 0, 0
+        for _, c in bl.most_common():
+            acc += c
+            n90 += 1
+            if acc >= 0.9 * sum(bl.values()):
+                break
+        print(
+            f"  {fn}: sampled code up to offset {extent[fn] / 1024:.0f} KB; 90 % of its samples in {n90} "
+            f"blocks of 2 KB ({len(bl)} blocks sampled)"
+        )
+    if not debuginfo:
+        return
+    print("\nby part of gear_kernel.py (line ranges of this source):")
+    for name, a, b in groups:
+        c = sum(
+            v
+            for k, v in by_line.items()
+            if k.startswith(KERNEL_FILE + ":") and a <= int(k.split(":")[1]) <= b
+        )
+        print(f"  {100.0 * c / total:6.2f} %  {name} (lines {a}-{b})")
+    print(f"\ntop {top} lines:")
+    for k, c in by_line.most_common(top):
+        print(f"  {100.0 * c / total:6.2f} %  {k}")
+
+
+def _groups() -> list[tuple[str, int, int]]:
+    """Line ranges of the parts of the step, found from the comments in gear_kernel.py."""
+    from gear_rotor_sim.solver import gear_kernel
+
+    src = open(gear_kernel.__file__, encoding="utf-8").read().splitlines()
+    marks = [
+        ("event step: sub-step map r', rho", "# --- sub-step map"),
+        ("event step: responses of delta, delta'", "# --- responses of delta"),
+        ("event step: excitation (tables, TE)", "# --- excitation at the sub-step end"),
+        ("event step: compensation (Gauss-Jordan)", "# --- compensation: pd"),
+        ("event step: affine form call", "# --- delta, delta' affine"),
+        ("event step: mesh solve, crossing, re-split", "# --- mesh solve (the mesh"),
+        ("event step: commit (amplitudes, modes)", "# --- commit: new amplitudes"),
+        ("event step: right limits", "# --- right limits at the boundary"),
+        ("end of event step", "return STATUS_OK, n_fail, n_sub"),
+    ]
+    pos = []
+    for name, pat in marks:
+        idx = next(i for i, s in enumerate(src) if pat in s)
+        pos.append((name, idx + 1))
+    out = []
+    for (name, a), (_, b) in itertools.pairwise(pos):
+        out.append((name, a, b - 1))
+    loop0 = next(i for i, s in enumerate(src) if s.startswith("def _run_loop")) + 1
+    ev_call = next(i for i, s in enumerate(src) if "status, nfl, nsb = _event_step(" in s) + 1
+    out.append(("_run_loop (regular steps, event detection, outputs)", loop0, len(src)))
+    out.append(("  of it: the event step's call site", ev_call, ev_call + 3))
+    af = next(i for i, s in enumerate(src) if s.startswith("def _affine_forces")) + 1
+    out.append(("_affine_forces (inlined)", af, af + 70))
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("capture")
+    c.add_argument("path")
+    c.add_argument("--rpm", type=float, default=20000.0)
+    c.add_argument("--full", action="store_true", help="the full basis (modal_cutoff_hz=None)")
+    lp = sub.add_parser("loop")
+    lp.add_argument("path")
+    lp.add_argument("--seconds", type=float, default=10.0)
+    p = sub.add_parser("profile")
+    p.add_argument("path")
+    p.add_argument("--seconds", type=float, default=10.0)
+    p.add_argument("--top", type=int, default=30)
+    p.add_argument(
+        "--no-debuginfo", action="store_true", help="the project's build (functions and offsets only)"
+    )
+    a = ap.parse_args()
+    if a.cmd == "capture":
+        capture(a.path, a.rpm, None if a.full else "auto")
+    elif a.cmd == "loop":
+        loop(a.path, a.seconds)
+    else:
+        profile(a.path, a.seconds, a.top, _groups(), not a.no_debuginfo)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
