@@ -19,6 +19,8 @@ LLVM's GDB JIT interface). Prints the share of the samples per function (shared 
 (``--top`` lines). The debug build is the optimised code plus line tables; its time per step is
 printed so that it can be compared with the project's build.
 
+``dense PATH``: the cost per sub-step with the event steps sparse and dense (:func:`dense`).
+
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/profile_event_steps.py capture /tmp/c20k.pkl``
 then ``... profile /tmp/c20k.pkl`` (about a minute; needs ``perf`` and ``gdb``).
 """
@@ -199,6 +201,51 @@ def profile(path: str, seconds: float, top: int, groups: list[tuple[str, int, in
         print(f"  {100.0 * c / total:6.2f} %  {k}")
 
 
+def dense(path: str, ks: list[int], reps: int) -> None:
+    """Cost per committed sub-step with the event steps sparse (the captured chunk, k = 1) and dense:
+    the same chunk with the mesh phase advancing k times faster per step (``phase`` unwrapped, scaled,
+    wrapped again; ``phase_rate`` scaled), so that about k times as many steps hold a table jump. A
+    test of the kernel, not physics. CPU medians of ``reps`` - 1 runs, located and not."""
+    from gear_rotor_sim.solver import gear_kernel
+
+    with open(path, "rb") as fh:
+        a0 = pickle.load(fh)
+    n = a0[4][0].shape[0] - 1
+
+    def with_k(k: int) -> list:
+        a = copy.deepcopy(list(a0))
+        exc = list(a[4])
+        d = np.diff(exc[0], axis=0)
+        d[d < 0.0] += 1.0
+        un = exc[0][:1] + np.concatenate([np.zeros((1, d.shape[1])), np.cumsum(d, axis=0) * k])
+        exc[0] = np.ascontiguousarray(un - np.floor(un))
+        exc[1] = np.ascontiguousarray(exc[1] * k)
+        a[4] = tuple(exc)
+        return a
+
+    cpu: dict[tuple[int, bool], list[float]] = collections.defaultdict(list)
+    nsub: dict[int, int] = {}
+    for _ in range(reps):
+        for k in ks:
+            a = with_k(k)
+            for loc in (True, False):
+                b = copy.deepcopy(a)
+                b[8] = loc
+                c0 = time.process_time()
+                out = gear_kernel.run_chunk_gear(*b)
+                cpu[(k, loc)].append(time.process_time() - c0)
+                if loc:
+                    nsub[k] = int(out[3])
+    for k in ks:
+        lo = 1e6 * float(np.median(cpu[(k, True)][1:])) / n
+        un = 1e6 * float(np.median(cpu[(k, False)][1:])) / n
+        ns = nsub[k] / n
+        print(
+            f"k={k}: {ns:.3f} sub-steps per step; located {lo:.3f} / not {un:.3f} us per step; "
+            f"{(lo - un) / ns:.3f} us per sub-step"
+        )
+
+
 def _groups() -> list[tuple[str, int, int]]:
     """Line ranges of the parts of the step, found from the comments in gear_kernel.py."""
     from gear_rotor_sim.solver import gear_kernel
@@ -248,11 +295,17 @@ def main() -> int:
     p.add_argument(
         "--no-debuginfo", action="store_true", help="the project's build (functions and offsets only)"
     )
+    d = sub.add_parser("dense")
+    d.add_argument("path")
+    d.add_argument("--k", type=int, nargs="+", default=[1, 2, 4, 8])
+    d.add_argument("--reps", type=int, default=9)
     a = ap.parse_args()
     if a.cmd == "capture":
         capture(a.path, a.rpm, None if a.full else "auto")
     elif a.cmd == "loop":
         loop(a.path, a.seconds)
+    elif a.cmd == "dense":
+        dense(a.path, a.k, a.reps)
     else:
         profile(a.path, a.seconds, a.top, _groups(), not a.no_debuginfo)
     return 0
