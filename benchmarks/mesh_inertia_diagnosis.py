@@ -1,5 +1,5 @@
 """The mesh mode apart from the static mesh compliance: the two models' gear inertias (docs/calibration.md
-Sec. 8.40).
+Sec. 8.41).
 
 Three parts, each printed as a table:
 
@@ -150,28 +150,9 @@ def inertia_calibrator(on: bool):
     return InertiaCalibrator
 
 
-def read_dte_depth_with_inertia() -> None:
-    """The stand-in for ``FitSettings.mesh_inertia_from_comb`` (the hook in ``Calibrator._refine``): the DTE
-    depth read with the inertia set at which the DTE comb and the sideband ratios agree."""
-    import gear_rotor_sim.calibration.fit as fit_mod
-    from gear_rotor_sim.calibration.baseline_mesh_inertia import inertia_for_dte_depth
-
-    orig = fit_mod.refine_depth_by_dte
-
-    def wrapped(cal, e, accepted, mesh_set=None):
-        if mesh_set is None:
-            mesh_set = inertia_for_dte_depth(cal, e, accepted)
-        return orig(cal, e, accepted, mesh_set)
-
-    fit_mod.refine_depth_by_dte = wrapped
-
-
 def cmd_calibrate(args: argparse.Namespace) -> None:
     from gear_rotor_sim.calibration.fit import FitSettings
     from gear_rotor_sim.calibration.measurement import load_measurement
-
-    if args.comb:
-        read_dte_depth_with_inertia()
 
     m = load_measurement(args.record)
     for on in [v == "on" for v in args.variants.split(",")]:
@@ -182,7 +163,7 @@ def cmd_calibrate(args: argparse.Namespace) -> None:
             held = [MeshStiffnessDamping(stiffness_scale=sk, damping_scale=sc)]
             held += [GearInertia(inertia_scale=sm)] if sm != 1.0 else []
         kw = {"baseline_sets": [BearingStiffnessDamping()]} if held else {}
-        fs = FitSettings(tooth_path_in_contact=args.path_in_contact)
+        fs = FitSettings(tooth_path_in_contact=args.path_in_contact, mesh_inertia_from_comb=args.comb)
         cal = inertia_calibrator(on)(m, fit_settings=fs, log=print if args.verbose else None, **kw)
         # the mesh sets held from the start, fitted on this record otherwise (the rules of a record
         # without a reference stay: the DTE depth, the bearing set)
@@ -280,7 +261,7 @@ def main() -> None:
     c.add_argument("--out", default=None)
     c.add_argument("--verbose", action="store_true")
     c.add_argument("--path-in-contact", action="store_true", help="FitSettings.tooth_path_in_contact on")
-    c.add_argument("--comb", action="store_true", help="DTE depth read with the inertia of comb_readings")
+    c.add_argument("--comb", action="store_true", help="FitSettings.mesh_inertia_from_comb on")
     c.add_argument("--held", default=None, help="s_k:s_c:s_m held as the machine's mesh sets from the start")
     d = sub.add_parser("scan")
     d.add_argument("record")

@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gear_rotor_sim.calibration.baseline_mesh_inertia import inertia_for_dte_depth
 from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_in_contact,
     wheel_shaft,
@@ -68,7 +69,7 @@ class DteDepth:
     absolute_depth: float  # the depth of the absolute features it replaces
     raw: np.ndarray  # full run at the DTE depth (with the mesh set)
     #: the baseline set it was read with: the mesh stiffness scale of the ratio depth, or the gear pair's
-    #: inertia that makes the DTE comb and the ratios agree (``baseline_mesh_inertia.py``, Sec. 8.40)
+    #: inertia that makes the DTE comb and the ratios agree (``baseline_mesh_inertia.py``, Sec. 8.41)
     mesh_set: MeshStiffnessDamping | MeshInertia | None = None
 
 
@@ -124,6 +125,9 @@ def refine_depth_by_dte(
             out[d] = dte_tooth_signature(x, fs, f_shaft, teeth, debias=False)[0]
         return out
 
+    if mesh_set is None and cal.fit.mesh_inertia_from_comb:
+        # the gear inertia at which the DTE comb and the sideband ratios agree (Sec. 8.41)
+        mesh_set = inertia_for_dte_depth(cal, e, accepted)
     pre = (mesh_set,) if mesh_set is not None else ()
     fit = depth_from_dte(meas, meas_se, grid_at(pre, DEPTH_GRID[-1]))
     if fit is None:
