@@ -19,6 +19,11 @@ LLVM's GDB JIT interface). Prints the share of the samples per function (shared 
 (``--top`` lines). The debug build is the optimised code plus line tables; its time per step is
 printed so that it can be compared with the project's build.
 
+``dense PATH``: the cost per sub-step with the event steps sparse and dense (:func:`dense`).
+
+``sections PATH``: the event step's sections timed in place by the time-stamp counter, in an
+instrumented copy of the kernel (:func:`sections`, :func:`instrument`).
+
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/profile_event_steps.py capture /tmp/c20k.pkl``
 then ``... profile /tmp/c20k.pkl`` (about a minute; needs ``perf`` and ``gdb``).
 """
@@ -199,6 +204,164 @@ def profile(path: str, seconds: float, top: int, groups: list[tuple[str, int, in
         print(f"  {100.0 * c / total:6.2f} %  {k}")
 
 
+def dense(path: str, ks: list[int], reps: int) -> None:
+    """Cost per committed sub-step with the event steps sparse (the captured chunk, k = 1) and dense:
+    the same chunk with the mesh phase advancing k times faster per step (``phase`` unwrapped, scaled,
+    wrapped again; ``phase_rate`` scaled), so that about k times as many steps hold a table jump. A
+    test of the kernel, not physics. CPU medians of ``reps`` - 1 runs, located and not."""
+    from gear_rotor_sim.solver import gear_kernel
+
+    with open(path, "rb") as fh:
+        a0 = pickle.load(fh)
+    n = a0[4][0].shape[0] - 1
+
+    def with_k(k: int) -> list:
+        a = copy.deepcopy(list(a0))
+        exc = list(a[4])
+        d = np.diff(exc[0], axis=0)
+        d[d < 0.0] += 1.0
+        un = exc[0][:1] + np.concatenate([np.zeros((1, d.shape[1])), np.cumsum(d, axis=0) * k])
+        exc[0] = np.ascontiguousarray(un - np.floor(un))
+        exc[1] = np.ascontiguousarray(exc[1] * k)
+        a[4] = tuple(exc)
+        return a
+
+    cpu: dict[tuple[int, bool], list[float]] = collections.defaultdict(list)
+    nsub: dict[int, int] = {}
+    for _ in range(reps):
+        for k in ks:
+            a = with_k(k)
+            for loc in (True, False):
+                b = copy.deepcopy(a)
+                b[8] = loc
+                c0 = time.process_time()
+                out = gear_kernel.run_chunk_gear(*b)
+                cpu[(k, loc)].append(time.process_time() - c0)
+                if loc:
+                    nsub[k] = int(out[3])
+    for k in ks:
+        lo = 1e6 * float(np.median(cpu[(k, True)][1:])) / n
+        un = 1e6 * float(np.median(cpu[(k, False)][1:])) / n
+        ns = nsub[k] / n
+        print(
+            f"k={k}: {ns:.3f} sub-steps per step; located {lo:.3f} / not {un:.3f} us per step; "
+            f"{(lo - un) / ns:.3f} us per sub-step"
+        )
+
+
+#: Section marks of ``_event_step`` (its comments) and what :func:`sections` calls them.
+SECTION_MARKS = (
+    ("        # --- sub-step map r', rho", "map r', rho"),
+    ("        # --- responses of delta, delta'", "responses (free part, qs, qn)"),
+    ("        # --- excitation at the sub-step end", "excitation (tables, TE)"),
+    ("        # --- compensation: pd = H_d E^-1", "compensation (Gauss-Jordan)"),
+    ("        # --- delta, delta' affine in the mesh forces", "affine form"),
+    ("        # --- mesh solve (the mesh whose", "mesh solve, crossing, re-split"),
+    ("        # --- commit: new amplitudes", "commit (amplitudes, modes)"),
+    ("        # --- right limits at the boundary", "right limits"),
+)
+_RDTSC = """
+from llvmlite import ir as _llir
+from numba import types as _nbtypes
+from numba.core import cgutils as _cgutils
+from numba.extending import intrinsic as _intrinsic
+
+
+@_intrinsic
+def _rdtsc(typingctx):  # llvm.readcyclecounter: the time-stamp counter (not serialising)
+    def codegen(context, builder, signature, args):
+        fnty = _llir.FunctionType(_llir.IntType(64), [])
+        fn = _cgutils.get_or_insert_function(builder.module, fnty, "llvm.readcyclecounter")
+        return builder.call(fn, [])
+
+    return _nbtypes.int64(), codegen
+"""
+
+
+def instrument(src: str) -> str:
+    """``gear_kernel.py``'s source with time-stamp counter reads at the sections of ``_event_step``
+    (:data:`SECTION_MARKS`; ``prof[k]`` ticks, ``prof[16]`` committed and ``prof[21]`` re-split
+    sub-steps), around the event step's call (``prof[8]``, ``prof[17]`` calls) and the whole loop
+    (``prof[10]``); ``run_chunk_gear`` takes ``prof`` (int64, 32) as its last argument."""
+    out: list[str] = []
+    in_ev = False
+    for line in src.split("\n"):
+        if line.startswith("def "):
+            in_ev = line.startswith("def _event_step(")
+        for k, (pat, _) in enumerate(SECTION_MARKS):
+            if in_ev and line.startswith(pat):
+                out.append(
+                    "        _tp = _rdtsc()"
+                    if k == 0
+                    else f"        _tq = _rdtsc(); prof[{k - 1}] += _tq - _tp; _tp = _tq"
+                )
+        if in_ev and line == "                continue":
+            out.append("                prof[5] += _rdtsc() - _tp; prof[21] += 1")
+        if in_ev and line == "        i += 1":
+            out.append("        prof[7] += _rdtsc() - _tp; prof[16] += 1")
+        if line.startswith("            status, nfl, nsb = _event_step("):
+            out.append("            _te0 = _rdtsc()")
+        if line.startswith("            for r in range(2 * nm):  # prediction of the next full step"):
+            out.append("            prof[8] += _rdtsc() - _te0; prof[17] += 1")
+        out.append(line)
+    s = "\n".join(out)
+    reps = (
+        ("    rp, sub, resp, mats, solve, swork, g = work\n", "    rp, sub, resp, mats, solve, swork, g, prof = work\n"),  # noqa: E501
+        ("(np.zeros(nmode), np.zeros(nmode)))\n", "(np.zeros(nmode), np.zeros(nmode)), prof)\n"),
+        ("    average_jumps: bool = False,\n) -> tuple", "    average_jumps: bool = False,\n    prof: np.ndarray = None,\n) -> tuple"),  # noqa: E501
+        ("    ev, avg, work, ja = evw\n", "    ev, avg, work, ja = evw\n    prof = work[7]\n    _t00 = _rdtsc()\n"),  # noqa: E501
+        ("    _copy_int(s_p, state)\n    for i in range(nm):\n        mcarry[0, i]", "    prof[10] += _rdtsc() - _t00\n    _copy_int(s_p, state)\n    for i in range(nm):\n        mcarry[0, i]"),  # noqa: E501
+        ("\n_MAX_PIECES = ", _RDTSC + "\n_MAX_PIECES = "),
+    )  # fmt: skip
+    for old, new in reps:
+        if old not in s:
+            raise ValueError(f"gear_kernel.py has changed: {old.strip()[:50]!r} not found")
+        s = s.replace(old, new, 1)
+    return s
+
+
+def sections(path: str, reps: int, src_path: str) -> None:
+    """Time-stamp-counter ticks per evaluated sub-step by section of ``_event_step``, in a copy of the
+    kernel compiled as another module (:func:`instrument`), on the captured call; medians of ``reps``
+    - 1 runs. The counter is not serialising: a section's figure may carry some of its neighbours'."""
+    import importlib.util
+
+    from gear_rotor_sim.solver import gear_kernel
+
+    src = open(src_path or gear_kernel.__file__, encoding="utf-8").read()
+    tmp = tempfile.mkdtemp(prefix="gk_sections_")
+    dst = os.path.join(tmp, "gear_kernel_sections.py")
+    with open(dst, "w", encoding="utf-8") as fh:
+        fh.write(instrument(src))
+    spec = importlib.util.spec_from_file_location("gear_kernel_sections", dst)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    with open(path, "rb") as fh:
+        a = pickle.load(fh)
+    n = a[4][0].shape[0] - 1
+    profs, cpus = [], []
+    for _ in range(reps):
+        prof = np.zeros(32, dtype=np.int64)
+        b = [*copy.deepcopy(list(a)), prof]
+        c0 = time.process_time()
+        mod.run_chunk_gear(*b)  # type: ignore[attr-defined]
+        cpus.append(time.process_time() - c0)
+        profs.append(prof)
+    p = np.median(np.array(profs[1:]), axis=0)
+    cpu = float(np.median(cpus[1:]))
+    ne = p[16] + p[21]
+    print(
+        f"{path}: {1e6 * cpu / n:.3f} us per step (CPU, instrumented), counter {p[10] / cpu / 1e9:.2f} GHz; "
+        f"{p[17]:.0f} event steps ({100 * p[8] / p[10]:.1f} % of the loop, {p[8] / p[17]:.0f} ticks each), "
+        f"{p[16]:.0f} committed + {p[21]:.0f} re-split sub-steps; ticks per evaluated sub-step:"
+    )
+    for k, (_, name) in enumerate(SECTION_MARKS):
+        print(f"  {name:32s} {p[k] / ne:6.0f}  ({100 * p[k] / p[10]:4.1f} % of the loop)")
+    print(f"  {'sum':32s} {p[:8].sum() / ne:6.0f}  ({100 * p[:8].sum() / p[10]:4.1f} %)")
+
+
 def _groups() -> list[tuple[str, int, int]]:
     """Line ranges of the parts of the step, found from the comments in gear_kernel.py."""
     from gear_rotor_sim.solver import gear_kernel
@@ -248,11 +411,23 @@ def main() -> int:
     p.add_argument(
         "--no-debuginfo", action="store_true", help="the project's build (functions and offsets only)"
     )
+    d = sub.add_parser("dense")
+    d.add_argument("path")
+    d.add_argument("--k", type=int, nargs="+", default=[1, 2, 4, 8])
+    d.add_argument("--reps", type=int, default=9)
+    sc = sub.add_parser("sections")
+    sc.add_argument("path")
+    sc.add_argument("--reps", type=int, default=9)
+    sc.add_argument("--kernel", default="", help="a gear_kernel.py source (default: the installed one)")
     a = ap.parse_args()
     if a.cmd == "capture":
         capture(a.path, a.rpm, None if a.full else "auto")
     elif a.cmd == "loop":
         loop(a.path, a.seconds)
+    elif a.cmd == "dense":
+        dense(a.path, a.k, a.reps)
+    elif a.cmd == "sections":
+        sections(a.path, a.reps, a.kernel)
     else:
         profile(a.path, a.seconds, a.top, _groups(), not a.no_debuginfo)
     return 0
