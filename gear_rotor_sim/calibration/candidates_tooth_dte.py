@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gear_rotor_sim.calibration.baseline_mesh_inertia import inertia_for_dte_depth
 from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_in_contact,
     wheel_shaft,
@@ -51,6 +52,7 @@ from gear_rotor_sim.calibration.candidates_tooth import (
 from gear_rotor_sim.calibration.features_dte_depth import DteDepthFit, depth_from_dte, dte_tooth_signature
 from gear_rotor_sim.calibration.features_sidebands import DEPTH_GRID
 from gear_rotor_sim.faults import Effect, MeshStiffnessDamping, ToothDamage
+from gear_rotor_sim.faults.mesh_inertia import MeshInertia
 
 if TYPE_CHECKING:
     from gear_rotor_sim.calibration.fit import Calibrator, CandidateFit
@@ -66,7 +68,9 @@ class DteDepth:
     n_families: int
     absolute_depth: float  # the depth of the absolute features it replaces
     raw: np.ndarray  # full run at the DTE depth (with the mesh set)
-    mesh_set: MeshStiffnessDamping | None = None
+    #: the baseline set it was read with: the mesh stiffness scale of the ratio depth, or the gear pair's
+    #: inertia that makes the DTE comb and the ratios agree (``baseline_mesh_inertia.py``, Sec. 8.41)
+    mesh_set: MeshStiffnessDamping | MeshInertia | None = None
 
 
 def dte_channel(cal: Calibrator) -> int | None:
@@ -93,7 +97,10 @@ def dte_depth_applies(cal: Calibrator) -> bool:
 
 
 def refine_depth_by_dte(
-    cal: Calibrator, e: ToothDamage, accepted: list[Effect], mesh_set: MeshStiffnessDamping | None = None
+    cal: Calibrator,
+    e: ToothDamage,
+    accepted: list[Effect],
+    mesh_set: MeshStiffnessDamping | MeshInertia | None = None,
 ) -> DteDepth | None:
     """Depth of the named tooth ``e`` from the DTE's low sideband families (module docstring).
 
@@ -118,6 +125,9 @@ def refine_depth_by_dte(
             out[d] = dte_tooth_signature(x, fs, f_shaft, teeth, debias=False)[0]
         return out
 
+    if mesh_set is None and cal.fit.mesh_inertia_from_comb:
+        # the gear inertia at which the DTE comb and the sideband ratios agree (Sec. 8.41)
+        mesh_set = inertia_for_dte_depth(cal, e, accepted)
     pre = (mesh_set,) if mesh_set is not None else ()
     fit = depth_from_dte(meas, meas_se, grid_at(pre, DEPTH_GRID[-1]))
     if fit is None:
@@ -128,14 +138,18 @@ def refine_depth_by_dte(
     cal.notes.append(
         f"{e.label}: depth from the DTE comb of the {e.wheel}'s synchronous average {fit.depth:.3g} +- "
         f"{fit.sigma:.2g} ({_families(fit)}"
-        + (
-            f"; at the mesh scale x{mesh_set.stiffness_scale:.3g} fitted with the ratio depth"
-            if mesh_set
-            else ""
-        )
+        + _with_set(mesh_set)
         + f"); from the absolute features {e.depth:.3g}"
     )
     return DteDepth(eff, fit.sigma, fit.n_families, float(e.depth), raw, mesh_set)
+
+
+def _with_set(mesh_set: MeshStiffnessDamping | MeshInertia | None) -> str:
+    if isinstance(mesh_set, MeshStiffnessDamping):
+        return f"; at the mesh scale x{mesh_set.stiffness_scale:.3g} fitted with the ratio depth"
+    if isinstance(mesh_set, MeshInertia):
+        return f"; with the gear inertia and mesh stiffness x{mesh_set.inertia_scale:.3g} (mesh mode held)"
+    return ""
 
 
 def _families(fit: DteDepthFit) -> str:

@@ -74,6 +74,10 @@ class FitSettings:
     #: baseline sets (no axial line at the wheel's order 1) are not its runner-up
     #: (``candidates_misalignment.py``, Sec. 8.38); False: as in session 14
     misalignment_axial: bool = True
+    #: opt-in: a named tooth's DTE depth read with the gear pair's inertia (mesh mode held) at which its DTE
+    #: comb and its sideband energy ratios agree, where the record's own mesh set is in the baseline
+    #: (``baseline_mesh_inertia.inertia_for_dte_depth``, Sec. 8.41: 4500 rpm gear tooth -40 % -> -5 %)
+    mesh_inertia_from_comb: bool = False
 
 
 @dataclass
