@@ -28,6 +28,8 @@ from gear_rotor_sim.calibration.confirm_updated import (
     stalled_round_step,
 )
 from gear_rotor_sim.calibration.fit import CandidateFit, FitSettings, FoundEffect
+from gear_rotor_sim.calibration.fit_model import ModelAccess
+from gear_rotor_sim.calibration.fit_screens import Screening
 from gear_rotor_sim.calibration.residual import ResidualSettings, Score
 from gear_rotor_sim.calibration.search_rounds import examine_round
 from gear_rotor_sim.faults import BearingStiffnessDamping, MeshStiffnessDamping, TemperatureOffset, ToothWear
@@ -102,6 +104,10 @@ class ScriptedScreen:
         self._sig_cache: dict[str, Any] = {}
         self._sig_checked: dict[Any, bool] = {}
         self.base_raw = self._raw(())
+
+    # the calibrator's own bookkeeping of a baseline update
+    _join_baseline = ModelAccess._join_baseline
+    _update_carrier_tolerance = Screening._update_carrier_tolerance
 
     def log(self, msg: str) -> None:
         pass

@@ -130,14 +130,10 @@ def take_mesh_inertia(
         "baseline",
     )
     cal.log(f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}")
-    cal.baseline.append(ver.effect)
-    cal._sig_cache.clear()
-    cal._sig_checked.clear()
-    cal.base_raw = cal._raw(())
+    cal._join_baseline(ver.effect)
     feats = cal._accept_features(ver)
     cal._refit_transfer(feats)
-    if cal.fixed_carrier_tolerance is None:
-        cal.cmp.set_carrier_tolerance(cal._carrier_floor(feats, cal.cmp.score(feats)))
+    cal._update_carrier_tolerance(feats)
     return entry, ver.raw, feats
 
 

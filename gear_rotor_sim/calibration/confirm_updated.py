@@ -156,14 +156,10 @@ def _updated(cal: Calibrator, pre: Sequence[Effect]) -> tuple[list[Effect], Any]
         b, ver = took
         remaining.remove(b)
         taken.append(ver.effect)
-        cal.baseline.append(ver.effect)
-        cal._sig_cache.clear()
-        cal._sig_checked.clear()
-        cal.base_raw = cal._raw(())
+        cal._join_baseline(ver.effect)
         feats = cal._features(cal.base_raw)
         cal._refit_transfer(feats)
-        if cal.fixed_carrier_tolerance is None:
-            cal.cmp.set_carrier_tolerance(cal._carrier_floor(feats, cal.cmp.score(feats)))
+        cal._update_carrier_tolerance(feats)
     return taken, feats
 
 

@@ -456,16 +456,11 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
                 self.log(
                     f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}"
                 )
-                self.baseline.append(ver.effect)
-                self._sig_cache.clear()
-                self._sig_checked.clear()
-                self.base_raw = self._raw(())
+                self._join_baseline(ver.effect)
                 cur_raw = ver.raw
                 cur_feat = self._accept_features(ver)
                 self._refit_transfer(cur_feat)
-                if self.fixed_carrier_tolerance is None:
-                    ctol = self._carrier_floor(cur_feat, self.cmp.score(cur_feat))
-                    self.cmp.set_carrier_tolerance(ctol)
+                self._update_carrier_tolerance(cur_feat)
                 cur_score = self.cmp.score(cur_feat)
                 N = cur_score.n_total
                 if len(accepted) == len(self.pre_effects) and not any(
@@ -521,14 +516,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
                     )
                 )
                 self.log(f"baseline {b.label} {b.parameters()} with {ver.effect.label}")
-                self.baseline.append(b)
-                self._sig_cache.clear()
-                self._sig_checked.clear()
-                self.base_raw = self._raw(())
+                self._join_baseline(b)
                 self._refit_transfer(cur_feat)
-                if self.fixed_carrier_tolerance is None:
-                    ctol = self._carrier_floor(cur_feat, self.cmp.score(cur_feat))
-                    self.cmp.set_carrier_tolerance(ctol)
+                self._update_carrier_tolerance(cur_feat)
             cur_score = self.cmp.score(cur_feat)
         else:
             conclusion = f"stopped after {self.fit.max_effects} effects"

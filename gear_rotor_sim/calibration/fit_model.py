@@ -112,6 +112,14 @@ class ModelAccess:
         ``effects``."""
         return self.runner.force_signals((*self.baseline, *self.pre_effects, *effects))
 
+    def _join_baseline(self, effect: Effect) -> None:
+        """Make ``effect`` part of the machine's baseline: the signature caches dropped, the base run
+        redone with it."""
+        self.baseline.append(effect)
+        self._sig_cache.clear()
+        self._sig_checked.clear()
+        self.base_raw = self._raw(())
+
     def _setup(self) -> np.ndarray:
         """Healthy nominal model run; envelope bands and housing-sensor frequencies. Model outputs."""
         self._sig_cache: dict[str, ModelFeatures] = {}

@@ -186,13 +186,15 @@ class Screening:
                 )
             )
             self.log(f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}")
-            self.baseline.append(ver.effect)
-            self._sig_cache.clear()
-            self._sig_checked.clear()
-            self.base_raw = self._raw(())
+            self._join_baseline(ver.effect)
             self._refit_transfer(self._features(self.base_raw))
             score = self.cmp.score(self._features(self.base_raw))
         return updates
+
+    def _update_carrier_tolerance(self, feats: ModelFeatures) -> None:
+        """Re-estimate the carrier tolerance on the updated model's ``feats``, unless the caller fixed it."""
+        if self.fixed_carrier_tolerance is None:
+            self.cmp.set_carrier_tolerance(self._carrier_floor(feats, self.cmp.score(feats)))
 
     def _carrier_floor(self, feats: ModelFeatures, score: Score) -> float:
         """Model-form tolerance of the mesh carriers: their median relative misfit, in [tol, 0.5]."""
