@@ -37,9 +37,11 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg as sla
 
+from gear_rotor_sim.calibration.fit import Calibrator, CandidateFit, FoundEffect, _logistic
+from gear_rotor_sim.calibration.residual import ModelFeatures, Score
 from gear_rotor_sim.config import load_config
-from gear_rotor_sim.faults import BearingStiffnessDamping, MeshStiffnessDamping
-from gear_rotor_sim.faults.mesh_inertia import GearInertia
+from gear_rotor_sim.faults import BearingStiffnessDamping, Effect, MeshStiffnessDamping
+from gear_rotor_sim.faults.mesh_inertia import GearInertia, MeshInertia
 from gear_rotor_sim.system import GearRotorSystem, gear_disc
 from lumped_gearbox.params import Gearbox
 from lumped_gearbox.simulate import build
@@ -123,10 +125,103 @@ def cmd_modes(args: argparse.Namespace) -> None:
             print(_mode_line(r))
 
 
+#: grid of the inertia scale (within MeshInertia's bounds 0.5-2; 1 is the current machine)
+INERTIA_GRID: tuple[float, ...] = (0.6, 0.8, 1.25, 1.6)
+
+
+def fit_mesh_inertia(
+    cal: Calibrator, cur: ModelFeatures, score: Score, accepted: list[Effect]
+) -> CandidateFit | None:
+    """The ``mesh_inertia`` set on the machine whose mesh set was just updated (module docstring).
+
+    Parameters
+    ----------
+    cal : Calibrator
+        The calibration in progress; its baseline holds the mesh set.
+    cur : ModelFeatures
+        Features of the current model (baseline-updated, accepted effects).
+    score : Score
+        Its score.
+    accepted : list of Effect
+        Effects accepted so far (the full runs of the refinement carry them).
+
+    Returns
+    -------
+    CandidateFit or None
+        The verified fit when it passes the BIC rule, else None (a note says why).
+    """
+    if any(isinstance(b, MeshInertia) for b in cal.baseline):
+        return None
+    e = MeshInertia()
+    if not e.applicable(cal.runner.cfg):
+        return None
+    spec = e.specs[0]
+    fit = cal._fit_grid_scalar(e, spec.name, INERTIA_GRID, 1.0, cur, (spec.lower, spec.upper))
+    if fit is None:
+        return None
+    n = score.n_total
+    penalty = fit.k * math.log(n)
+    dbic = score.balanced_chi2 - fit.score.balanced_chi2 - penalty
+    if dbic <= cal.fit.bic_threshold:
+        x = fit.effect.parameters()[spec.name]
+        cal.notes.append(f"mesh_inertia: not taken (x{x:.3g} on the grid, dBIC {dbic:.4g})")
+        return None
+    ver = cal._refine(fit, accepted)
+    dbic = score.balanced_chi2 - ver.score.balanced_chi2 - penalty
+    if dbic <= cal.fit.bic_threshold:
+        cal.notes.append(
+            f"mesh_inertia: not taken after the full runs (x{ver.effect.parameters()[spec.name]:.3g}, "
+            f"dBIC {dbic:.4g})"
+        )
+        return None
+    ver.delta_bic = float(dbic)
+    ver.explained = float(
+        (score.balanced_chi2 - ver.score.balanced_chi2) / max(score.balanced_chi2 - n, 1e-12)
+    )
+    return ver
+
+
+def take_mesh_inertia(
+    cal: Calibrator, cur: ModelFeatures, accepted: list[Effect]
+) -> tuple[FoundEffect, np.ndarray, ModelFeatures] | None:
+    """Fit the ``mesh_inertia`` set (:func:`fit_mesh_inertia`) right after the mesh set was taken and, if
+    it passes, update the machine with it as the caller does for any baseline set: the set joins
+    ``cal.baseline``, the signatures are dropped, the transfer slopes and (without a reference's) the
+    carrier tolerance re-fitted.
+
+    Returns
+    -------
+    tuple or None
+        ``(report entry, raw run, features)`` of the updated model, or None when the set is not taken.
+    """
+    score = cal.cmp.score(cur)
+    ver = fit_mesh_inertia(cal, cur, score, accepted)
+    if ver is None:
+        return None
+    entry = FoundEffect(
+        ver.name,
+        ver.effect.label,
+        ver.effect.parameters(),
+        ver.uncertainty,
+        _logistic(ver.delta_bic / 2),
+        float(ver.delta_bic),
+        float(ver.explained),
+        score.error,
+        ver.score.error,
+        ver.effect,
+        "baseline",
+    )
+    cal.log(f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}")
+    cal._join_baseline(ver.effect)
+    feats = cal._accept_features(ver)
+    cal._refit_transfer(feats)
+    cal._update_carrier_tolerance(feats)
+    return entry, ver.raw, feats
+
+
 def inertia_calibrator(on: bool):
     """A :class:`Calibrator` that fits the ``mesh_inertia`` set right after taking the mesh set (``on``);
     the diagnosis's stand-in for ``FitSettings.mesh_inertia`` (reported in the notes)."""
-    from gear_rotor_sim.calibration.baseline_mesh_inertia import take_mesh_inertia
     from gear_rotor_sim.calibration.fit import Calibrator
 
     class InertiaCalibrator(Calibrator):
@@ -135,8 +230,7 @@ def inertia_calibrator(on: bool):
             if not (on and isinstance(ver.effect, MeshStiffnessDamping) and ver.effect in self.baseline):
                 return feats
             self._refit_transfer(feats)
-            if self.fixed_carrier_tolerance is None:
-                self.cmp.set_carrier_tolerance(self._carrier_floor(feats, self.cmp.score(feats)))
+            self._update_carrier_tolerance(feats)
             got = take_mesh_inertia(self, feats, [])
             if got is None:
                 return feats

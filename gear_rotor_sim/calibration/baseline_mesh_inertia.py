@@ -7,12 +7,10 @@ tooth's depth read from the DTE comb (about ``s^0.6``, Sec. 8.27) follows it. Th
 (``faults.mesh_inertia.MeshInertia``: gear discs' mass and inertia and mesh stiffness both times ``s``)
 holds the mode where the mesh set put it and moves ``F / k`` by ``1 / s``. Two ways to choose ``s``:
 
-* :func:`fit_mesh_inertia` / :func:`take_mesh_inertia`: fitted on the whole record right after the mesh set
-  (grid :data:`GRID` through the interpolated signatures, BIC rule, parabola on full runs). Measured: the
-  healthy model's chi^2 is flat along the mode-held line (within 2 % over ``s`` 0.6-1.2 on the 4500 rpm
-  gear record), so the fit lands on the channels' model-form misfit (x1.32 / x0.82 on the two 4500 rpm
-  tooth records); not hooked into the calibration (``benchmarks/mesh_inertia_diagnosis.py calibrate
-  --variants on`` runs it);
+* fitted on the whole record right after the mesh set (``benchmarks/mesh_inertia_diagnosis.py calibrate
+  --variants on``; the fit lives there, not in the calibration). Measured: the healthy model's chi^2 is flat
+  along the mode-held line (within 2 % over ``s`` 0.6-1.2 on the 4500 rpm gear record), so the fit lands on
+  the channels' model-form misfit (x1.32 / x0.82 on the two 4500 rpm tooth records): not hooked in;
 * :func:`inertia_for_dte_depth` (opt-in ``FitSettings.mesh_inertia_from_comb``): where a named tooth's DTE
   comb (which reads ``F / k``) and its scale-free sideband energy ratios give one depth
   (:func:`comb_readings`, :func:`consistent_scale`); the DTE depth is then read with that set, which goes
@@ -30,111 +28,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from gear_rotor_sim.faults.mesh_inertia import MeshInertia
 
 if TYPE_CHECKING:
-    from gear_rotor_sim.calibration.fit import Calibrator, CandidateFit, FoundEffect
-    from gear_rotor_sim.calibration.residual import ModelFeatures, Score
+    from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.faults import Effect, ToothDamage
 
-#: grid of the inertia scale (within MeshInertia's bounds 0.5-2; 1 is the current machine)
-GRID: tuple[float, ...] = (0.6, 0.8, 1.25, 1.6)
 #: inertia scales at which the named tooth's depth is read two ways (:func:`comb_readings`)
 SCALES: tuple[float, ...] = (1.0, 0.8, 0.65, 0.5)
-
-
-def fit_mesh_inertia(
-    cal: Calibrator, cur: ModelFeatures, score: Score, accepted: list[Effect]
-) -> CandidateFit | None:
-    """The ``mesh_inertia`` set on the machine whose mesh set was just updated (module docstring).
-
-    Parameters
-    ----------
-    cal : Calibrator
-        The calibration in progress; its baseline holds the mesh set.
-    cur : ModelFeatures
-        Features of the current model (baseline-updated, accepted effects).
-    score : Score
-        Its score.
-    accepted : list of Effect
-        Effects accepted so far (the full runs of the refinement carry them).
-
-    Returns
-    -------
-    CandidateFit or None
-        The verified fit when it passes the BIC rule, else None (a note says why).
-    """
-    if any(isinstance(b, MeshInertia) for b in cal.baseline):
-        return None
-    e = MeshInertia()
-    if not e.applicable(cal.runner.cfg):
-        return None
-    spec = e.specs[0]
-    fit = cal._fit_grid_scalar(e, spec.name, GRID, 1.0, cur, (spec.lower, spec.upper))
-    if fit is None:
-        return None
-    n = score.n_total
-    penalty = fit.k * math.log(n)
-    dbic = score.balanced_chi2 - fit.score.balanced_chi2 - penalty
-    if dbic <= cal.fit.bic_threshold:
-        x = fit.effect.parameters()[spec.name]
-        cal.notes.append(f"mesh_inertia: not taken (x{x:.3g} on the grid, dBIC {dbic:.4g})")
-        return None
-    ver = cal._refine(fit, accepted)
-    dbic = score.balanced_chi2 - ver.score.balanced_chi2 - penalty
-    if dbic <= cal.fit.bic_threshold:
-        cal.notes.append(
-            f"mesh_inertia: not taken after the full runs (x{ver.effect.parameters()[spec.name]:.3g}, "
-            f"dBIC {dbic:.4g})"
-        )
-        return None
-    ver.delta_bic = float(dbic)
-    ver.explained = float(
-        (score.balanced_chi2 - ver.score.balanced_chi2) / max(score.balanced_chi2 - n, 1e-12)
-    )
-    return ver
-
-
-def take_mesh_inertia(
-    cal: Calibrator, cur: ModelFeatures, accepted: list[Effect]
-) -> tuple[FoundEffect, np.ndarray, ModelFeatures] | None:
-    """Fit the ``mesh_inertia`` set (:func:`fit_mesh_inertia`) right after the mesh set was taken and, if
-    it passes, update the machine with it as the caller does for any baseline set: the set joins
-    ``cal.baseline``, the signatures are dropped, the transfer slopes and (without a reference's) the
-    carrier tolerance re-fitted.
-
-    Returns
-    -------
-    tuple or None
-        ``(report entry, raw run, features)`` of the updated model, or None when the set is not taken.
-    """
-    from gear_rotor_sim.calibration import fit as fit_mod  # run time: fit.py imports this module
-
-    score = cal.cmp.score(cur)
-    ver = fit_mesh_inertia(cal, cur, score, accepted)
-    if ver is None:
-        return None
-    entry = fit_mod.FoundEffect(
-        ver.name,
-        ver.effect.label,
-        ver.effect.parameters(),
-        ver.uncertainty,
-        fit_mod._logistic(ver.delta_bic / 2),
-        float(ver.delta_bic),
-        float(ver.explained),
-        score.error,
-        ver.score.error,
-        ver.effect,
-        "baseline",
-    )
-    cal.log(f"baseline {ver.effect.label} {ver.effect.parameters()}: error -> {ver.score.error:.3g}")
-    cal._join_baseline(ver.effect)
-    feats = cal._accept_features(ver)
-    cal._refit_transfer(feats)
-    cal._update_carrier_tolerance(feats)
-    return entry, ver.raw, feats
 
 
 @dataclass

@@ -30,8 +30,11 @@ class HousingSensor:
 
     ``m a_h'' ... : m x'' + 2 zeta omega_n m x' + omega_n^2 m x = F_bearing``; the sensor reads the
     housing acceleration ``a_h = x''``, i.e. ``H(s) = s^2 / (m (s^2 + 2 zeta omega_n s + omega_n^2))``
-    (discretised by the bilinear transform pre-warped at ``f_n``). The housing resonance is what
-    makes bearing impacts ring in the kHz band seen in real recordings (McFadden & Smith 1984).
+    (discretised by the bilinear transform without pre-warping: its resonance lands slightly below
+    ``f_n``, which is a fitted nuisance on measured rigs; ``sensors.housing.HousingSensor``, the
+    simulator's streamed housing channels, is the same mode pre-warped at ``f_n``. The CWRU reports were
+    fitted with this one, so the two are not merged). The housing resonance is what makes bearing
+    impacts ring in the kHz band seen in real recordings (McFadden & Smith 1984).
 
     Attributes
     ----------
