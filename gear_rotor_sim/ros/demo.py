@@ -216,7 +216,13 @@ class Probe:
         from diagnostic_msgs.msg import DiagnosticArray
         from gear_rotor_msgs.msg import ConditionIndicators, VibrationChunk
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+        from rclpy.qos import (
+            DurabilityPolicy,
+            HistoryPolicy,
+            QoSProfile,
+            ReliabilityPolicy,
+            qos_profile_sensor_data,
+        )
         from rosgraph_msgs.msg import Clock
         from std_msgs.msg import Float64
 
@@ -231,7 +237,11 @@ class Probe:
         self.clock: list[float] = []
         self.keep_data = keep_data
         if reliable:
-            qos = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
+            # keep all: the middleware's receive thread stores every chunk until this (Python) executor
+            # takes it; a keep-last reader drops the oldest unread ones when the executor lags
+            qos = QoSProfile(
+                depth=200, history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE
+            )
         else:
             qos = QoSProfile(depth=qos_profile_sensor_data.depth, reliability=ReliabilityPolicy.BEST_EFFORT)
         if transient_local:
