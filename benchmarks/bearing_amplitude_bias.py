@@ -1,5 +1,5 @@
-"""Where the bearing-defect force read on an independent record comes from (issue 11; docs/calibration.md
-Sec. 8.36).
+"""Where the bearing-defect force read on an independent record comes from (issue 11;
+docs/history/calibration_sessions.md Sec. 8.36).
 
 For each record (a ``lumped_gearbox`` record of the held-out set or of the 28-row table, regenerated
 with the benchmark's seed) the calibration runs as the CLI does; then, on the calibrated machine

@@ -2,7 +2,7 @@
 
 The issue-11 table (``benchmarks/calibration_independent.py``) holds every fault at one severity, one
 tooth index, one phase, one seed and 25 C, at 3000 or 8000 rpm. This benchmark asks the same questions
-of ``lumped_gearbox`` records the table does not hold (docs/calibration.md Sec. 8.22):
+of ``lumped_gearbox`` records the table does not hold (docs/history/calibration_sessions.md Sec. 8.22):
 
 - every fault effect at about x0.6 and x1.6 of the table's severity at 3000 rpm, with other tooth
   indices, phases and members (pinion misalignment, unbalance on the gear node 14);
@@ -104,7 +104,7 @@ EXTRA: list[tuple[str, tuple[float, float], str]] = [
 #: node 5):
 #: judged like a healthy record, no effect may be claimed. A gear-shaft unbalance of 1.8e-4 kg m at
 #: 3000 rpm moves bearing 2's force by 1.7e-3 N at the gear's order 1 in the lumped model (1.3e-3 N in
-#: the FE model) against a noise standard deviation of 9.9 N (docs/calibration.md Sec. 8.22)
+#: the FE model) against a noise standard deviation of 9.9 N (docs/history/calibration_sessions.md Sec. 8.22)
 UNOBSERVABLE = ("mass_unbalance:node=14,unbalance_kg_m=1.8e-4,phase_rad=-2.0",)
 SEED0 = 101  # the table uses 11..40 and 999
 

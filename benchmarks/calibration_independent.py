@@ -3,10 +3,10 @@
 Records are made by ``lumped_gearbox`` (a lumped-parameter model that shares no code with
 ``gear_rotor_sim``; docs/independent_data.md), with 2-5 % noise and +-3 % gains, for every fault it
 shares with the effect library at two operating points (teeth in contact: 3000 rpm; rattling:
-8000 rpm), tooth wear also at 6000 rpm where the worn teeth separate (``EXTRA``; docs/calibration.md
-Sec. 8.32), and healthy records at three speeds and three temperatures. Each record is diagnosed by
-``gear-rotor-sim calibrate RECORD --json`` and, when the CLI has ``--baseline``, again with a healthy
-record of the same machine at another speed as the baseline.
+8000 rpm), tooth wear also at 6000 rpm where the worn teeth separate (``EXTRA``;
+docs/history/calibration_sessions.md Sec. 8.32), and healthy records at three speeds and three temperatures.
+Each record is diagnosed by ``gear-rotor-sim calibrate RECORD --json`` and, when the CLI has ``--baseline``,
+again with a healthy record of the same machine at another speed as the baseline.
 
 Usage::
 
@@ -62,7 +62,8 @@ HEALTHY = [
 #: extra rows (tag, speed, temperature, fault): tooth wear where the WORN teeth separate. At 8000 rpm 20 um
 #: of wear is not observable on the converged, anti-aliased records (its error before lies inside the
 #: healthy records' spread); at 6000 rpm the worn lumped teeth separate 40 % of the time and the healthy
-#: ones never, error before 13.8 against a healthy floor of 2.99 (docs/calibration.md Sec. 8.32)
+#: ones never, error before 13.8 against a healthy floor of 2.99 (docs/history/calibration_sessions.md
+#: Sec. 8.32)
 EXTRA = [("rattle_tooth_wear_6000", 6000.0, 25.0, "tooth_wear:wear_depth_m=20e-6")]
 QUICK_FAULTS = [FAULTS[1], FAULTS[2], FAULTS[7]]
 QUICK_HEALTHY = [(CONTACT_RPM, 25.0), (CONTACT_RPM, 125.0)]

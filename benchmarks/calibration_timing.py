@@ -10,7 +10,7 @@ Prints one Markdown row per record and variant with the median and the range ove
 With ``--compare DIR`` every JSON report is compared field by field, to the last digit, with the report
 of the same record and variant in DIR (``<tag>[.baseline].calibration.json``, as written by this script
 with ``--save`` or by the two table benchmarks): a change that is meant to make the calibration faster
-must leave them identical (docs/calibration.md Sec. 8.39).
+must leave them identical (docs/history/calibration_sessions.md Sec. 8.39).
 
 Usage::
 

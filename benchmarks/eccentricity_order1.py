@@ -4,8 +4,8 @@ Runs the independent generator (``lumped_gearbox``, clean channels, no noise, no
 model (the calibration's own model run, ``calibration.residual.ModelRunner``) at the same operating
 point, once healthy and once with the eccentricity, and prints the complex amplitude of the
 difference at order 1 of the eccentric wheel's shaft for each of the six channels the records hold
-(docs/calibration.md Sec. 8.33). Amplitudes are per channel (m, N, m/s^2); the phase is referred to
-the shaft angle (both models start at shaft angle 0 at time 0).
+(docs/history/calibration_sessions.md Sec. 8.33). Amplitudes are per channel (m, N, m/s^2); the phase is
+referred to the shaft angle (both models start at shaft angle 0 at time 0).
 
     python benchmarks/eccentricity_order1.py                       # pinion 15 um, gear 20 um at 3000 rpm
     python benchmarks/eccentricity_order1.py --speed-rpm 4500 --temperature-c 75

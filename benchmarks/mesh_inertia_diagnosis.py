@@ -1,5 +1,5 @@
-"""The mesh mode apart from the static mesh compliance: the two models' gear inertias (docs/calibration.md
-Sec. 8.41).
+"""The mesh mode apart from the static mesh compliance: the two models' gear inertias
+(docs/history/calibration_sessions.md Sec. 8.41).
 
 Three parts, each printed as a table:
 

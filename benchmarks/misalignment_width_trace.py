@@ -1,11 +1,12 @@
 """A gear misalignment's record scored at fixed effects: angle, tilted-contact width, baseline sets.
 
-Traces what sets a misalignment's angle and error in contact (docs/calibration.md Sec. 8.37): the record
-(CSV, as ``gear-rotor-sim calibrate`` reads it, the start transient skipped) is scored against the FE model
-with the given baseline sets (and a held reference's, ``--baseline REF.json``) plus a gear misalignment at
-fixed angle and phase, for each ``rho`` scale (``face_width_m`` times the scale: the edge-loaded mesh part
-only) and each angle factor. Prints the error, the balanced chi^2, the axial channels' order chi^2 (the
-refinement's objective, ``candidates_misalignment.axial_chi2``) and the per-family chi^2 / N.
+Traces what sets a misalignment's angle and error in contact (docs/history/calibration_sessions.md Sec. 8.37):
+the record (CSV, as ``gear-rotor-sim calibrate`` reads it, the start transient skipped) is scored against
+the FE model with the given baseline sets (and a held reference's, ``--baseline REF.json``) plus a gear
+misalignment at fixed angle and phase, for each ``rho`` scale (``face_width_m`` times the scale:
+the edge-loaded mesh part only) and each angle factor. Prints the error, the balanced chi^2, the axial
+channels' order chi^2 (the refinement's objective, ``candidates_misalignment.axial_chi2``) and the per-family
+chi^2 / N.
 
 Usage::
 

@@ -1,5 +1,5 @@
-"""Where a diagnosis's order residual sits: chi^2 per channel, shaft and order group (docs/calibration.md
-Sec. 8.37).
+"""Where a diagnosis's order residual sits: chi^2 per channel, shaft and order group
+(docs/history/calibration_sessions.md Sec. 8.37).
 
 Runs the calibration of each record as the CLI does (``gear-rotor-sim calibrate RECORD --json``, with
 ``--baseline REF.json`` when given: the reference written by ``--save-baseline`` or by

@@ -9,7 +9,7 @@ without the wear: the record's own floor against the library's baseline sets. Pr
 ``error_before`` (the nominal model, as the calibration reports it), ``error_after``, their ratio
 (the acceptance needs at most 0.5), the chi^2 / N of each family, the baseline updates, and the
 chi^2 / N per channel of the order family. A healthy record at the same operating point (``--floor``)
-gives the floor the remainder is compared with (docs/calibration.md Sec. 8.26).
+gives the floor the remainder is compared with (docs/history/calibration_sessions.md Sec. 8.26).
 
 Usage::
 

@@ -1,4 +1,5 @@
-"""Where the DTE mean sits at rattle, and how tooth wear moves it (docs/calibration.md Sec. 8.20).
+"""Where the DTE mean sits at rattle, and how tooth wear moves it (docs/history/calibration_sessions.md
+Sec. 8.20).
 
 The DTE mean over a rattling mesh is the time average over three states: contact on the drive flank,
 free flight across the backlash, contact on the back (coast) flank. This script runs the FE model

@@ -1,4 +1,5 @@
-"""Sideband energy ratios against depth and mesh stiffness scale on the FE model (docs/calibration.md 8.10).
+"""Sideband energy ratios against depth and mesh stiffness scale on the FE model
+(docs/history/calibration_sessions.md 8.10).
 
 For a damaged tooth (gear tooth 5 or pinion tooth 5) at 3000 rpm / 25 C, data are made by the FE
 model with the mesh stiffness scaled by 1.0 and 1.34 (the ratio of the ISO 6336 and potential-energy

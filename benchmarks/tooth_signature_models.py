@@ -1,4 +1,5 @@
-"""A damaged tooth's signature in the two models, band by band (docs/calibration.md Sec. 8.35).
+"""A damaged tooth's signature in the two models, band by band (docs/history/calibration_sessions.md
+Sec. 8.35).
 
 The signature is the change of the damaged wheel's synchronous-average coefficients (every channel,
 orders 1-6 and the sidebands ``m z +- 6`` of the mesh harmonics ``m = 1..3``) that one tooth of depth

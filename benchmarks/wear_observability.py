@@ -1,4 +1,5 @@
-"""Is tooth wear observable at all on the independent records? (docs/calibration.md Sec. 8.32)
+"""Is tooth wear observable at all on the independent records? (docs/history/calibration_sessions.md
+Sec. 8.32)
 
 For each speed (25 C) this script makes ``lumped_gearbox`` records (the generator's default chain,
 2 s, noise and gain draws of ``make_record``): healthy ones at several noise seeds and worn ones at

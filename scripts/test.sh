@@ -14,7 +14,7 @@ ruff check .
 ruff format --check . >/dev/null || { echo "[test] ruff format would change files:"; ruff format --check .; exit 1; }
 echo "[test] pytest"
 # Two workers (pytest-xdist), each test file whole on one worker so that its module fixtures are
-# computed once: the suite is single-threaded CPU work, mostly calibrations (docs/calibration.md
+# computed once: the suite is single-threaded CPU work, mostly calibrations (docs/history/calibration_sessions.md
 # Sec. 8.39). PYTEST_WORKERS=0 runs it in one process.
 workers=${PYTEST_WORKERS:-2}
 xdist=()

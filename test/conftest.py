@@ -28,8 +28,8 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 # ------------------------------------------------------------------ shared calibrations (test time)
 # Calibrations of the same independent record with the same settings, asked for by tests in several
-# files, are run once per test session (docs/calibration.md Sec. 8.39). Each test still asserts its
-# own criteria on the shared result; the result objects are only read.
+# files, are run once per test session (docs/history/calibration_sessions.md Sec. 8.39). Each test still
+# asserts its own criteria on the shared result; the result objects are only read.
 
 #: the 0.6 s ``lumped_gearbox`` records shared between test files: (speed rpm, temperature C, faults,
 #: seed), as test_calibration_independent_diagnosis.py made them

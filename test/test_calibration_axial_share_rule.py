@@ -1,4 +1,5 @@
-"""The significance condition of a misalignment's axial share (docs/calibration.md Sec. 8.38).
+"""The significance condition of a misalignment's axial share (docs/history/calibration_sessions.md
+Sec. 8.38).
 
 ``candidates_misalignment.axial_share`` counts the share of the axial bearing forces' order excess that a
 candidate explains only where the axial gain itself passes ``bic_threshold + k ln N``: a share of an

@@ -3,7 +3,7 @@
 - Where the teeth separate, the per-channel model-form tolerance of ``features_rattle.py`` (rule 3)
   is lifted at the shaft orders 1 and 2 where the healthy model has nothing: a fault's content
   there is kinematic or quasi-static (the order-1 bearing forces of an unbalance: a lever rule) and
-  keeps the contact tolerance (docs/calibration.md Sec. 8.12).
+  keeps the contact tolerance (docs/history/calibration_sessions.md Sec. 8.12).
 - The DTE channel of a mesh is found by its contract name.
 """
 

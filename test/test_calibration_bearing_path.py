@@ -1,5 +1,5 @@
 """A bearing defect's force read with the share of its modelled shaft path as a nuisance
-(``calibration/candidates_bearing.py``, docs/calibration.md Sec. 8.30).
+(``calibration/candidates_bearing.py``, docs/history/calibration_sessions.md Sec. 8.30).
 
 Independent truth: the impulse of an impact train written here by hand (outer-race rate of the 6206
 from its kinematics, 1 % slip, two pulse shapes of the same impulse, recorded through an

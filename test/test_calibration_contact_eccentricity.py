@@ -4,8 +4,8 @@ A 15 um pinion eccentricity passed in session 5 (-3 %) and was then no longer cl
 run's start-up from static equilibrium separated the teeth for two steps, the simulator's dt rule ran
 its contact-loss setting into the analysed window, and the envelope of the non-synchronous part read
 that switch as a misfit that does not scale with the eccentricity (``calibration/model_settle.py``,
-docs/calibration.md Sec. 8.7). Checked here: the switch and its removal on the FE model against the
-same run with the rule off, the window logic against a scripted simulator, and the diagnosis of a
+docs/history/calibration_sessions.md Sec. 8.7). Checked here: the switch and its removal on the FE model
+against the same run with the rule off, the window logic against a scripted simulator, and the diagnosis of a
 ``lumped_gearbox`` record.
 """
 
@@ -68,8 +68,8 @@ def test_settled_window_of_an_eccentric_pinion_matches_the_run_without_rule_swit
     of ``bearing2_fy`` in the window's first 50 ms is several times that of the same run with the rule
     off (``contact_loss_rate_hz=None``: no switch; independent of the window logic); the settled window
     equals the rule-off level within 20 %. At -2 rad: with the eccentricity's profile error and whirl
-    from one centre offset (docs/calibration.md Sec. 8.33) the start-up at 0.5 rad stays in contact
-    (measured 19.8 N against 0.51 N rule-off at -2 rad, 38 times; at 0.5 rad 1.0 times)."""
+    from one centre offset (docs/history/calibration_sessions.md Sec. 8.33) the start-up at 0.5 rad stays in
+    contact (measured 19.8 N against 0.51 N rule-off at -2 rad, 38 times; at 0.5 rad 1.0 times)."""
     from gear_rotor_sim.calibration.residual import cached_system
     from gear_rotor_sim.config import load_config
     from gear_rotor_sim.faults import GearEccentricity

@@ -1,4 +1,5 @@
-"""A damaged tooth's depth from the DTE's low sideband families (docs/calibration.md Sec. 8.25).
+"""A damaged tooth's depth from the DTE's low sideband families (docs/history/calibration_sessions.md
+Sec. 8.25).
 
 The family amplitudes are checked against the analytic Fourier series of a once-per-revolution
 rectangular pulse (noise debiased, jackknife error against the scatter over noise realisations), the

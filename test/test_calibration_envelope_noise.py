@@ -1,4 +1,5 @@
-"""The envelope family's noise model against statistics of Gaussian noise (docs/calibration.md Sec. 8.15).
+"""The envelope family's noise model against statistics of Gaussian noise
+(docs/history/calibration_sessions.md Sec. 8.15).
 
 Truth here is independent of the calibration: Monte-Carlo averages of the calibration's own envelope
 estimate on white Gaussian noise, the textbook correlation of Hann-windowed DFT bins, and the

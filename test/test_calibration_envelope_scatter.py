@@ -98,7 +98,7 @@ def gear_tooth_record(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_rattle_gear_tooth_named_with_its_depth_and_the_error_halved(gear_tooth_record: Path) -> None:
     """Measured: tooth 5, depth 0.381, error 2.318 -> 1.073 (ratio 0.463; 1.175, ratio 0.507, with one
-    path factor per channel before the banded path of docs/calibration.md Sec. 8.37)."""
+    path factor per channel before the banded path of docs/history/calibration_sessions.md Sec. 8.37)."""
     from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.calibration.measurement import load_measurement
     from gear_rotor_sim.faults import ToothDamage

@@ -1,4 +1,4 @@
-"""Held-out independent records (issue 11, docs/calibration.md Sec. 8.22).
+"""Held-out independent records (issue 11, docs/history/calibration_sessions.md Sec. 8.22).
 
 The 27-row table holds the gear eccentricity at 20 um only, where it read +24 %: every sensor gain sat
 at its 0.8 bound, set by the mesh carriers' model-form misfit, and an order-1 effect seen through that

@@ -4,7 +4,7 @@ The record comes from ``lumped_gearbox`` (docs/independent_data.md): its defect 
 race and housing and reach only the bearing-2 force channels, its mesh and shafts differ from the
 finite-element model (mesh carriers off by tens of percent). Criteria of the issue: the defect is
 named first, its impact force within 25 % of the injected one, the error at least halved. What
-makes it hold (docs/calibration.md Sec. 8.5): the envelope of the non-synchronous part (every
+makes it hold (docs/history/calibration_sessions.md Sec. 8.5): the envelope of the non-synchronous part (every
 shaft's synchronous average removed), analysed on the channels at a bearing, and the direct path of
 the impact into the housing.
 

@@ -75,8 +75,9 @@ def test_gear_tooth_damage_named_first_with_wheel_and_tooth(records) -> None:
     first = r.effects[0]
     assert first.label == "tooth_damage@gear", [(e.label, e.parameters) for e in r.effects]
     assert first.parameters["tooth"] == 5 and first.parameters["wheel"] == "gear"
-    # without a reference the depth is read from the sideband energy ratios (docs/calibration.md
-    # Sec. 8.10; measured 0.436 for 0.4, +9 %; from the absolute features 0.228)
+    # without a reference the depth is read from the sideband energy ratios
+    # (docs/history/calibration_sessions.md Sec. 8.10; measured 0.436 for 0.4, +9 %; from the absolute
+    # features 0.228)
     assert abs(first.parameters["depth"] - 0.4) <= 0.25 * 0.4, first.parameters
     assert r.error_after <= 0.5 * r.error_before
     # with the depth known, the absolute size of the signature gives the mesh stiffness scale:
@@ -85,8 +86,8 @@ def test_gear_tooth_damage_named_first_with_wheel_and_tooth(records) -> None:
 
 
 def test_pinion_tooth_depth_from_the_sideband_ratios_without_a_reference(pinion_tooth_calibration) -> None:
-    """Pinion tooth 7, depth 0.4 (docs/calibration.md Sec. 8.10; measured 0.451, +13 %, mesh x1.306;
-    from the absolute features 0.275). ``_calibrate(records["pinion_tooth"])``, run once per session
+    """Pinion tooth 7, depth 0.4 (docs/history/calibration_sessions.md Sec. 8.10; measured 0.451, +13 %, mesh
+    x1.306; from the absolute features 0.275). ``_calibrate(records["pinion_tooth"])``, run once per session
     (``conftest.pinion_tooth_calibration``)."""
     r = pinion_tooth_calibration
     assert r.effects and r.effects[0].label == "tooth_damage@pinion", [
@@ -135,7 +136,7 @@ def reference(reference_2000):
 @pytest.fixture(scope="module")
 def converged_reference(records):
     """The same reference fitted with the exact modal map (``ResidualSettings(reference_exact_map=True)``,
-    off by default: docs/calibration.md Sec. 8.27)."""
+    off by default: docs/history/calibration_sessions.md Sec. 8.27)."""
     from gear_rotor_sim.calibration.residual import ResidualSettings
 
     return fit_reference_baseline(
@@ -152,9 +153,9 @@ def test_reference_mesh_stiffness_scale_is_converged_in_the_integration_step(
     the period error ``(omega dt)^2 / 12`` lowers the mesh-coupled modes and the fit raised the mesh
     stiffness to put them back (2 s benchmark record: x1.309 / 1.199 / 1.121 / 1.107 at 32 / 64 / 128 /
     256 steps per mesh). With the exact modal map (``ResidualSettings.reference_exact_map``, off by
-    default; docs/calibration.md Sec. 8.27) its scale at 64 steps must agree with an independent
-    integrator's at a fine step, Newmark at 128 steps, within 3 % (measured on this 0.6 s record: x1.109
-    and x1.121; Newmark at 64 steps, the default reference, x1.211).
+    default; docs/history/calibration_sessions.md Sec. 8.27) its scale at 64 steps must agree with an
+    independent integrator's at a fine step, Newmark at 128 steps, within 3 % (measured on this 0.6 s record:
+    x1.109 and x1.121; Newmark at 64 steps, the default reference, x1.211).
 
     What the scale is not: the two models' mean mesh-stiffness ratio (ISO 6336 ``c_gamma b`` 423 MN/m
     against the potential-energy TVMS mean 316 MN/m, 1.342), which a damaged tooth's static ``F / k``
@@ -188,8 +189,8 @@ def test_diagnosis_against_the_converged_reference_reads_the_depth_from_the_dte_
     records, converged_reference, which, wheel, tooth
 ) -> None:
     """A damaged tooth at 3000 rpm against the converged 2000 rpm reference: named first with wheel and
-    tooth, the depth read from the DTE comb within 25 % of the truth (docs/calibration.md Sec. 8.27).
-    Against the converged reference the absolute features read the depth about 30 % low on the 2 s
+    tooth, the depth read from the DTE comb within 25 % of the truth (docs/history/calibration_sessions.md
+    Sec. 8.27). Against the converged reference the absolute features read the depth about 30 % low on the 2 s
     benchmark records (they follow the reference's dynamic mesh scale, x1.11, as ``F / k``; the static
     ratio of the two models is 1.342), so the DTE comb must be the reading and must be closer to the
     truth than the absolute one."""
@@ -260,7 +261,8 @@ def test_wear_from_the_dte_mean_against_a_healthy_baseline_at_another_speed(reco
     """20 um of flank wear at 3000 rpm against the 2000 rpm reference: the reference fixes the mesh
     stiffness (hence the static deflection F/k), the record's DTE mean then gives the depth
     (candidates_wear_reference.py). Measured on this 0.6 s record: 18.8 um (-6 %), error 5.14 -> 2.85;
-    the ranking alone fitted 9.9 um on the 2 s benchmark record (docs/calibration.md Sec. 8.12)."""
+    the ranking alone fitted 9.9 um on the 2 s benchmark record (docs/history/calibration_sessions.md
+    Sec. 8.12)."""
     r = _calibrate(records["wear"], **reference.calibrator_kwargs())
     assert r.effects and r.effects[0].name == "tooth_wear", [(e.label, e.parameters) for e in r.effects]
     assert abs(r.effects[0].parameters["wear_depth_m"] - 20e-6) <= 0.25 * 20e-6, r.effects[0].parameters

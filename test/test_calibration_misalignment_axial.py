@@ -1,4 +1,5 @@
-"""A gear misalignment in contact judged on the axial bearing forces (docs/calibration.md Sec. 8.38).
+"""A gear misalignment in contact judged on the axial bearing forces (docs/history/calibration_sessions.md
+Sec. 8.38).
 
 The record comes from the independent ``lumped_gearbox``: the gear tilted by 1 mrad at 4500 rpm, 75 C
 (teeth in contact), 1 s, seed 132 (the held-out row's seed), against the nominal FE model (no

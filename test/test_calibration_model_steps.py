@@ -1,5 +1,5 @@
 """The step count of the calibration's model runs from the model's own convergence (issue 11;
-docs/calibration.md Sec. 8.24, ``calibration/model_steps.py``).
+docs/history/calibration_sessions.md Sec. 8.24, ``calibration/model_steps.py``).
 
 Truths the rule is held to: a constructed step error whose size is known (the rule must stop at the
 first count whose error is below the stated fraction of the noise); on the FE paper gearbox, a run at

@@ -1,4 +1,5 @@
-"""Numerics of the calibration's features and model runs (issue 11, docs/calibration.md Sec. 8.18).
+"""Numerics of the calibration's features and model runs (issue 11, docs/history/calibration_sessions.md
+Sec. 8.18).
 
 Each check is against an independent truth: analytic Fourier coefficients and derivatives of
 constructed signals, a brute-force quadrature of a step mean, and the simulator itself at 1024 steps

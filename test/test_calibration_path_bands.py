@@ -1,4 +1,5 @@
-"""A damaged tooth's path to the bearing channels, one factor per band (docs/calibration.md Sec. 8.37).
+"""A damaged tooth's path to the bearing channels, one factor per band (docs/history/calibration_sessions.md
+Sec. 8.37).
 
 Analytic: a record whose comb on a bearing channel is the model's signature times a different complex
 factor in each band (the low orders, the sidebands of the first and of the second mesh harmonic: a
@@ -99,7 +100,8 @@ def test_banded_path_recovers_each_bands_factor_and_one_factor_does_not() -> Non
 
 #: the 2000 rpm reference of ``benchmarks/calibration_independent.py --only-baseline`` (2 s record, seed
 #: of the benchmark): mesh and bearing (stiffness, damping) scales as ``--save-baseline`` writes them (at
-#: the rattle point the diagnosis is sensitive to their last digits, docs/calibration.md Sec. 8.27)
+#: the rattle point the diagnosis is sensitive to their last digits, docs/history/calibration_sessions.md
+#: Sec. 8.27)
 MESH_SCALES = (1.199073162934285, 1.0)
 BEARING_SCALES = (0.5206146842535879, 1.2786617725483929)
 

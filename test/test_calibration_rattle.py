@@ -4,7 +4,8 @@ The records come from ``lumped_gearbox`` at 8000 rpm, where its teeth lose conta
 time (docs/independent_data.md). On the point-sampled records of sessions 1-12 its healthy response
 there held a component locked to five times the pinion rate (lines at pinion orders 5, 29 +- 5,
 58 +- 5: the aliasing of mesh harmonics above 10 kHz, removed by the generator's anti-aliasing chain
-since session 13, docs/calibration.md Sec. 8.29). A damaged pinion tooth raises the whole comb. Checked:
+since session 13, docs/history/calibration_sessions.md Sec. 8.29). A damaged pinion tooth raises the whole
+comb. Checked:
 
 - the model's response is periodic in the hunting period there, so the calibration simulates one
   hunting period instead of the record (``model_window.py``): window features equal full-record ones;
@@ -149,8 +150,9 @@ def test_rattle_healthy_claims_no_tooth_and_damaged_pinion_tooth_is_named(record
     assert res.effects == [], [(e.label, e.parameters) for e in res.effects]
     # (until session 12 this record's pinion family m z +- 5 was a "locked response component" that rule 2
     # of features_rattle.py left out; it was the point-sampled generator's aliasing of mesh harmonics 4-6,
-    # which the data-acquisition chain of lumped_gearbox/daq.py removes: docs/calibration.md Sec. 8.29.
-    # Rule 2 itself: test_locked_family_is_one_family_of_order_three_or_more, on synthetic families.)
+    # which the data-acquisition chain of lumped_gearbox/daq.py removes: docs/history/calibration_sessions.md
+    # Sec. 8.29. Rule 2 itself: test_locked_family_is_one_family_of_order_three_or_more, on synthetic
+    # families.)
     _, res = _calibrate(records["pinion_tooth"], ("pinion", "gear"))
     assert res.effects, res.notes
     first = res.effects[0]
@@ -159,8 +161,8 @@ def test_rattle_healthy_claims_no_tooth_and_damaged_pinion_tooth_is_named(record
     # the depth from the channels at the mesh, the bearing forces' share a fitted transfer
     # (fault_path.py): on the point-sampled records of sessions 1-12 measured 0.315 on this record (-21 %;
     # the DTE alone prefers 0.3), 0.362 on the 2 s benchmark record (0.157 there before); since the
-    # sideband energy ratios apply where the teeth separate (candidates_tooth.py, docs/calibration.md
-    # Sec. 8.14) 0.357 here and 0.359 there
+    # sideband energy ratios apply where the teeth separate (candidates_tooth.py,
+    # docs/history/calibration_sessions.md Sec. 8.14) 0.357 here and 0.359 there
     assert first.parameters["depth"] == pytest.approx(0.4, rel=0.25)
     assert any("fitted transfer factor" in n for n in res.notes), res.notes
     # measured 8.86 -> 3.67 on the point-sampled record (8.86 -> 3.39 with the ratio depth and its mesh

@@ -1,4 +1,5 @@
-"""The rattle point's floor (docs/calibration.md Sec. 8.15) on a healthy record the model did not make.
+"""The rattle point's floor (docs/history/calibration_sessions.md Sec. 8.15) on a healthy record the model did
+not make.
 
 Truth: the axial bearing force of the independent lumped gearbox at 8000 rpm / 25 C carries no
 dynamic content (a spur gearbox at the reference temperature), and neither does the FE model's, so

@@ -2,7 +2,8 @@
 
 The reference is the one the benchmark fits on the independent machine's healthy 2000 rpm record
 (teeth in contact): mesh stiffness x1.3085, mesh damping x1.7, bearing stiffness x0.522, bearing
-damping x1.285, carrier tolerance 0.5 (docs/calibration.md Sec. 8.1, 8.17). Held at 8000 rpm it
+damping x1.285, carrier tolerance 0.5 (docs/calibration.md Sec. 8.1,
+docs/history/calibration_sessions.md Sec. 8.17). Held at 8000 rpm it
 shrinks a damaged tooth's model response five times in power per unit depth and triples the
 healthy model's node-5 comb; with the bearing channels' path fitted (``fault_path.py``) a small pinion
 tooth then read the node accelerations' rattle comb on the healthy record. Checked here:
@@ -185,8 +186,8 @@ def test_pinion_tooth_against_a_held_reference_where_the_teeth_separate(records)
     assert res.effects == [], [(e.label, e.parameters) for e in res.effects]
     # (on the point-sampled records of sessions 1-12 the pinion tooth was refused by the mesh-channel
     # rule here, note "at the channels at the mesh (DTE) gains -"; on the anti-aliased, converged record
-    # of lumped_gearbox/daq.py no pinion tooth explains anything beyond the noise: docs/calibration.md
-    # Sec. 8.29)
+    # of lumped_gearbox/daq.py no pinion tooth explains anything beyond the noise:
+    # docs/history/calibration_sessions.md Sec. 8.29)
     res = Calibrator(load_measurement(records["pinion_tooth"]), candidates=cands, **REFERENCE).run()
     assert res.effects, res.notes
     first = res.effects[0]

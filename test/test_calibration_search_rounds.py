@@ -1,4 +1,4 @@
-"""A refused leader hands its round to the next candidate (docs/calibration.md Sec. 8.28).
+"""A refused leader hands its round to the next candidate (docs/history/calibration_sessions.md Sec. 8.28).
 
 Constructed rounds with scripted verifications (no model runs): the expected outcome of each round
 is worked out by hand from the acceptance rules of Sec. 4 (Delta BIC = chi2_before - chi2_after -
@@ -180,12 +180,12 @@ def test_a_baseline_set_not_taken_still_competes() -> None:
 
 @pytest.mark.parametrize("axial", [True, False])
 def test_a_baseline_set_is_no_rival_of_a_tilt_carried_by_the_axial_forces(axial: bool) -> None:
-    """The held-out 0.6 mrad record's round 1 in miniature (docs/calibration.md Sec. 8.34, 8.38): the mesh
-    set leads on its basis runs (1000, 17.7 % of the excess: skipped for its share); the misalignment
-    (basis 700, 12.3 %) explains 100 % of the axial channels' excess (``comb_explained``), verified at
-    chi^2 1400: Delta BIC 700 - 2 ln 100 = 690.8, 35 % of the excess. With the rule the mesh set, which has
-    no axial line at the wheel's order 1, is not its runner-up and it is claimed (runner-up -inf); without
-    it P(best vs runner-up) = 1 / (1 + exp(154.6)) and nothing is claimed. An unbalance with the same
+    """The held-out 0.6 mrad record's round 1 in miniature (docs/history/calibration_sessions.md Sec. 8.34,
+    8.38): the mesh set leads on its basis runs (1000, 17.7 % of the excess: skipped for its share);
+    the misalignment (basis 700, 12.3 %) explains 100 % of the axial channels' excess (``comb_explained``),
+    verified at chi^2 1400: Delta BIC 700 - 2 ln 100 = 690.8, 35 % of the excess. With the rule the mesh set,
+    which has no axial line at the wheel's order 1, is not its runner-up and it is claimed (runner-up -inf);
+    without it P(best vs runner-up) = 1 / (1 + exp(154.6)) and nothing is claimed. An unbalance with the same
     numbers (no axial share) still meets the mesh set as its runner-up."""
     mesh = MeshStiffnessDamping(stiffness_scale=0.9)
     mis = GearMisalignment(member="gear", angle_rad=0.6e-3, phase_rad=1.0)

@@ -1,4 +1,4 @@
-"""Scale-free tooth-damage signature: sideband energy ratios (docs/calibration.md Sec. 8.10).
+"""Scale-free tooth-damage signature: sideband energy ratios (docs/history/calibration_sessions.md Sec. 8.10).
 
 Checked against an analytic amplitude modulation and against physics on the FE model: a stiffer
 mesh (x1.34, the ratio of the ISO 6336 and potential-energy stiffnesses of the paper's pair) changes

@@ -1,4 +1,5 @@
-"""A damaged tooth in contact: its index at the mesh, its bearing path (docs/calibration.md Sec. 8.35).
+"""A damaged tooth in contact: its index at the mesh, its bearing path (docs/history/calibration_sessions.md
+Sec. 8.35).
 
 ``candidates_tooth_path.tooth_index_at_mesh`` (opt-in) decides where the named tooth and its
 neighbours are compared at the channels at the mesh; ``contact_tooth_path`` (opt-in) where the rule of

@@ -1,5 +1,5 @@
 """Tooth wear from the DTE mean without a reference, on the record's own baseline-updated model
-(``calibration/candidates_wear_contact.py``, docs/calibration.md Sec. 8.32).
+(``calibration/candidates_wear_contact.py``, docs/history/calibration_sessions.md Sec. 8.32).
 
 The record comes from the independent ``lumped_gearbox`` (its own mesh model and wear profile: uniform
 removal plus a stiffness-weighted sliding-wear profile with tip relief, docs/independent_data.md), 32 um

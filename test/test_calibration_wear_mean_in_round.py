@@ -1,5 +1,6 @@
 """Tooth wear that leads a round before any baseline update: the depth from the DTE mean, not from the
-ranking (``candidates_wear_contact.wear_depth_from_mean_in_round``, docs/calibration.md Sec. 8.34).
+ranking (``candidates_wear_contact.wear_depth_from_mean_in_round``, docs/history/calibration_sessions.md
+Sec. 8.34).
 
 The record comes from the independent ``lumped_gearbox``: 20 um of wear at 6000 rpm, 25 C, where the worn
 lumped teeth separate about 40 % of the time and the healthy FE model's teeth stay in contact (its worn

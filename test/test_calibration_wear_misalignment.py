@@ -1,5 +1,5 @@
-"""Gear misalignment and tooth wear on data the model did not make (issue 11, docs/calibration.md
-Sec. 8.8).
+"""Gear misalignment and tooth wear on data the model did not make (issue 11,
+docs/history/calibration_sessions.md Sec. 8.8).
 
 * A ``lumped_gearbox`` record (0.6 s, 3000 rpm, teeth in contact) of a gear tilted by 1 mrad: the
   misalignment candidate of the nominal model (linear axial part for the phase, full-simulation grid

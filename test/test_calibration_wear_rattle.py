@@ -3,7 +3,8 @@
 Independent truth: the lumped gearbox (``lumped_gearbox``, no code shared with the FE model) at
 8000 rpm, where its teeth separate about 37 % of the time. On the backbone of a clearance oscillator
 the response scales with the gap: the DTE amplitude at the mesh frequency follows
-``A = alpha (b + F0 / k)`` and its shape does not change with wear (docs/calibration.md Sec. 8.16).
+``A = alpha (b + F0 / k)`` and its shape does not change with wear (docs/history/calibration_sessions.md
+Sec. 8.16).
 """
 
 from __future__ import annotations
@@ -87,8 +88,8 @@ def test_worn_rattle_record_is_not_read_as_a_damaged_tooth_against_a_reference(
     1377, 1859, 3360, left out, 1110; the fundamental 0.34 of the others' median, above 0.25), but at
     the DTE, the channel that names the tooth, it gained in two families only (-153, -135, +283, +413,
     left out, -174) and the fundamental came from the node-5 accelerations. The family rules now hold
-    at the channels at the mesh too (docs/calibration.md Sec. 8.21; measured: nothing claimed,
-    3.38 -> 3.35)."""
+    at the channels at the mesh too (docs/history/calibration_sessions.md Sec. 8.21; measured: nothing
+    claimed, 3.38 -> 3.35)."""
     from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.calibration.measurement import load_measurement
     from lumped_gearbox import make_record, write_record

@@ -1,6 +1,7 @@
-"""The rattle-amplitude wear trigger's model-form uncertainty (candidates_wear_rattle.py, docs/calibration.md
-Sec. 8.20): the trigger compares amplitudes, so its uncertainty is the spread of the amplitude over the
-baseline ensemble, not that of the complex coefficient (which also counts the phase)."""
+"""The rattle-amplitude wear trigger's model-form uncertainty (candidates_wear_rattle.py,
+docs/history/calibration_sessions.md Sec. 8.20): the trigger compares amplitudes, so its uncertainty is
+the spread of the amplitude over the baseline ensemble, not that of the complex coefficient (which also counts
+the phase)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Every command docs/*.md shows is a valid command line of this checkout.
+"""Every command docs/*.md and docs/history/*.md show is a valid command line of this checkout.
 
 test_readme.py runs the README's (and docs/live.md's) commands as written. The other docs show about
 150 more: benchmarks that run for minutes to an hour, and the CLI on records that earlier commands
@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = sorted((ROOT / "docs").glob("*.md"))
+DOCS = sorted((ROOT / "docs").glob("*.md")) + sorted((ROOT / "docs" / "history").glob("*.md"))
 COMMAND = re.compile(
     r"^(python (benchmarks/\S+\.py|-m (gear_rotor_sim[\w.]*|lumped_gearbox)\b)"
     r"|gear-rotor-sim )"

@@ -1,7 +1,7 @@
 """An eccentric wheel: one centre offset moves both the tooth profile and the mass centre (issue 11).
 
 The pinion eccentricity read -18 % to -27 % on every record of the independent generator while the
-gear eccentricity read right (docs/calibration.md Sec. 8.33). Traced to the FE effect: its
+gear eccentricity read right (docs/history/calibration_sessions.md Sec. 8.33). Traced to the FE effect: its
 transmission error ``e sin(theta + phi)`` and its whirl force ``m e Omega^2 (cos, sin)(theta + phi)``
 came from two unrelated conventions, 160 deg (180 deg minus the pressure angle) away from the relative
 phase of a wheel whose profile and mass centre are moved by the same offset. On the pinion, whose whirl

@@ -1,4 +1,4 @@
-"""The gear inertia baseline set (faults/mesh_inertia.py; docs/calibration.md Sec. 8.41)."""
+"""The gear inertia baseline set (faults/mesh_inertia.py; docs/history/calibration_sessions.md Sec. 8.41)."""
 
 from __future__ import annotations
 

@@ -114,9 +114,10 @@ def test_wheel_orders_reject_bad_input():
 
 
 def test_wheel_orders_memo_returns_the_first_solution_and_tells_inputs_apart():
-    """The memo of repeated solves (``misalignment_force._ORDERS``, docs/calibration.md Sec. 8.39): a
-    repeated call returns the first solution bit for bit, a caller changing its copy does not change
-    the stored one, and a force, a shaft frequency or an order count differing anywhere is solved anew."""
+    """The memo of repeated solves (``misalignment_force._ORDERS``, docs/history/calibration_sessions.md
+    Sec. 8.39): a repeated call returns the first solution bit for bit, a caller changing its copy does not
+    change the stored one, and a force, a shaft frequency or an order count differing anywhere is solved
+    anew."""
     from gear_rotor_sim.faults import misalignment_force as mf
 
     fs, f_s = 4000.0, 25.0

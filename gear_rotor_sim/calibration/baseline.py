@@ -22,7 +22,8 @@ operating point, and why:
   the bearing channels stays a fitted nuisance (``fault_path.py``): the scales fix the linear lateral
   path, not the impact response. Measured at 8000 rpm with the 2000 rpm reference (mesh x1.31 / x1.7):
   a damaged tooth's response is five times smaller in power per unit depth than the nominal model's,
-  so a tooth is claimed there only if the channels at the mesh see it (``docs/calibration.md`` Sec. 8.17);
+  so a tooth is claimed there only if the channels at the mesh see it
+  (``docs/history/calibration_sessions.md`` Sec. 8.17);
 * **carried**: the model-form tolerance of the mesh carriers (the median relative misfit of the
   carriers after the baseline update, ``carrier_tolerance``). It is dimensionless (a fraction of the
   carrier amplitude), so it applies unchanged to the carriers of another speed, whose absolute

@@ -1,4 +1,5 @@
-"""The gear pair's inertia as a baseline set: the mesh mode apart from ``F / k`` (calibration.md Sec. 8.41).
+"""The gear pair's inertia as a baseline set: the mesh mode apart from ``F / k``
+(history/calibration_sessions.md Sec. 8.41).
 
 The mesh stiffness set (``mesh_stiffness_damping``) moves the mesh mode ``sqrt(k / m_e)`` and the static
 mesh compliance ``F / k`` together. Where the two models' mesh modes differ, the set places the mode and

@@ -89,8 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="integration steps per mesh period of the model runs (default: the diagnosis takes the "
         "coarsest count from 32, 64 with --baseline, whose healthy model agrees with twice the steps "
-        "within the noise, docs/calibration.md Sec. 8.24; the --baseline reference is fitted at 64: "
-        "from 48 on the mesh events are located, Sec. 8.18); a given count is used as is",
+        "within the noise, docs/history/calibration_sessions.md Sec. 8.24; the --baseline reference is "
+        "fitted at 64: from 48 on the mesh events are located, Sec. 8.18); a given count is used as is",
     )
 
 

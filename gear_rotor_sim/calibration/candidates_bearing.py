@@ -1,5 +1,5 @@
 """A bearing defect's amplitude with the shaft's share of its impact path as a fitted nuisance
-(issue 11; docs/calibration.md Sec. 8.30).
+(issue 11; docs/history/calibration_sessions.md Sec. 8.30).
 
 A defect's impact is an internal force pair of the bearing (``BearingDefect.impact_force``): the race's
 share goes through the outer ring straight into the housing and a force sensor under it (the direct
@@ -8,8 +8,8 @@ through the shaft-bearing dynamics, which reach the same sensor through the bear
 damping (the shaft path). In the envelope band (one octave between about 1 and 9 kHz) the shaft path
 is of the direct path's size (band RMS 0.3-1.3 times it on the paper gearbox's bearing 2) and adds to
 it with a phase set by the shaft's kHz modes, so the envelope lines per newton change with the band
-by a factor 0.5-2 in line power (docs/calibration.md Sec. 8.30). Those modes are what a model knows
-least: the bearing stiffness scale that a record fits from its low-frequency content (0.3-0.5 on the
+by a factor 0.5-2 in line power (docs/history/calibration_sessions.md Sec. 8.30). Those modes are what a model
+knows least: the bearing stiffness scale that a record fits from its low-frequency content (0.3-0.5 on the
 independent records) says nothing about the kHz response of the ball-inner ring contact that carries
 the reaction to the shaft. The direct path needs only the defect's force and the sensor.
 
@@ -22,8 +22,8 @@ is linear in the impact force). The share is the grid's best if it beats share 1
 first (:func:`fit_slip`) and the share is chosen by :func:`choose_share`: the direct path alone
 (share 0) only if it improves the envelope chi^2 by more than ``ln N`` over the full shaft path
 (Schwarz's penalty for one parameter), a share strictly between 0 and 1 only if it improves it by
-``ln N`` over the end taken (since session 14, docs/calibration.md Sec. 8.36); the defect at the
-chosen force and share is then verified on a full simulation (the whole record's balanced chi^2,
+``ln N`` over the end taken (since session 14, docs/history/calibration_sessions.md Sec. 8.36); the defect at
+the chosen force and share is then verified on a full simulation (the whole record's balanced chi^2,
 again by ``ln N``). It is not fitted where the shaft path cancels
 the direct path in an envelope band (the whole response below ``QUASI_STATIC_LIMIT`` of the direct
 one: the quasi-static regime, where the cancellation is momentum balance). The share is a transfer
@@ -58,7 +58,7 @@ SHARE_GRID: tuple[float, ...] = tuple(float(x) for x in np.linspace(0.0, 1.0, 11
 QUASI_STATIC_LIMIT = 0.5
 #: Slips of the impact intervals tried (``fit_slip``): the range of rolling bearings (1-2 %; Randall &
 #: Antoni 2011). Not below it: with 0.5 % in the grid the CWRU outer-race file took 0.5 % and its
-#: envelope's relative error after rose 0.277 -> 1.27 (docs/calibration.md Sec. 8.36).
+#: envelope's relative error after rose 0.277 -> 1.27 (docs/history/calibration_sessions.md Sec. 8.36).
 SLIP_GRID: tuple[float, ...] = (0.01, 0.015, 0.02)
 #: Range of the force over the candidate's fitted force in the fit at each share.
 FORCE_RANGE: tuple[float, float] = (0.1, 5.0)
@@ -119,7 +119,7 @@ def choose_share(table: dict[float, tuple[float, float]], penalty: float) -> flo
     compared with share 1 only, so a share of 0.1-0.3 that fitted the envelope no better than the
     direct path alone was taken, and its force was read through a band-dependent share of the
     modelled shaft path: on the held-out 3000 rpm ball x0.6 record 0.3 (+30 % on the truth, +16 %
-    at share 0; docs/calibration.md Sec. 8.36).
+    at share 0; docs/history/calibration_sessions.md Sec. 8.36).
     """
     taken = 1.0
     v = table[1.0][1]
@@ -216,7 +216,7 @@ def fit_slip(chi2: Any, directs: dict[float, Any], force0: float) -> float:
     response that needs no transfer model. Measured: on the held-out 3000 rpm outer race x1.6
     record the direct path at 1.5 % slip fitted the envelope to chi^2 289, at 1 % to 123 (the
     generator's own pulses 119), and a shaft-path share of 0.3-0.4 stood in for the missing slip
-    (266): +19 % on the force (docs/calibration.md Sec. 8.36).
+    (266): +19 % on the force (docs/history/calibration_sessions.md Sec. 8.36).
     """
     lo, hi = FORCE_RANGE[0] * force0, FORCE_RANGE[1] * force0
     best, out = math.inf, next(iter(directs))

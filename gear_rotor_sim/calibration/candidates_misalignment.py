@@ -1,4 +1,5 @@
-"""Fitting a gear's angular misalignment (``gear_misalignment``; docs/calibration.md Sec. 8.8).
+"""Fitting a gear's angular misalignment (``gear_misalignment``; docs/history/calibration_sessions.md
+Sec. 8.8).
 
 The effect (:class:`gear_rotor_sim.faults.GearMisalignment`) has two parts. The axial component of
 the mesh force, ``F(t) angle cos(theta + phi)`` on both wheels with ``F(t)`` the mesh force (the part
@@ -113,8 +114,8 @@ def axial_share(
     float
         ``(excess before - excess after) / excess before`` on the axial channels' orders
         (``fault_path.channels_excess``); 0 where the axial gain itself does not pass the BIC
-        threshold plus ``k ln N`` (docs/calibration.md Sec. 8.38): a share of an excess at the noise
-        level (a healthy record's axial lines) is no evidence of a tilt.
+        threshold plus ``k ln N`` (docs/history/calibration_sessions.md Sec. 8.38): a share of an excess at
+        the noise level (a healthy record's axial lines) is no evidence of a tilt.
     """
     axial = axial_channels(cal.cmp.names)
     before = channels_excess(cal.cmp, cur, axial)
@@ -163,9 +164,9 @@ def fit_contact_width(cal: Calibrator, ver: CandidateFit, accepted: Sequence[Eff
     :data:`WIDTH_SCALE_RANGE` (``GearMisalignment.face_width_m``, which enters ``rho`` only, not the
     axial force), bounded Brent on full simulations of the balanced chi^2 of every channel. Taken
     where it lowers that chi^2 by more than ``ln N`` (one parameter more); the scale is a nuisance
-    reported in the notes, never a finding (docs/calibration.md Sec. 8.38). Measured on the held-out
-    4500 rpm / 75 C record (1 mrad, 2000 rpm reference held): error 47.9 at ``b``, 18.5 at ``1.75 b``,
-    the angle 1.034 mrad in both.
+    reported in the notes, never a finding (docs/history/calibration_sessions.md Sec. 8.38). Measured on
+    the held-out 4500 rpm / 75 C record (1 mrad, 2000 rpm reference held): error 47.9 at ``b``, 18.5 at
+    ``1.75 b``, the angle 1.034 mrad in both.
 
     Parameters
     ----------

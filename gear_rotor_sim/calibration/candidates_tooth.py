@@ -1,4 +1,5 @@
-"""Depth of a named damaged tooth from its scale-free signature (issue 11; docs/calibration.md Sec. 8.10).
+"""Depth of a named damaged tooth from its scale-free signature (issue 11;
+docs/history/calibration_sessions.md Sec. 8.10).
 
 Where the record's own dynamics do not identify the mesh stiffness scale (no reference record; at
 3000 rpm the fitted scale ranged over x1.10-x1.95 for a physical x1.34, Sec. 8.7), the depth fitted
@@ -32,8 +33,8 @@ inside the grid; the full simulation at that depth is then the candidate's model
 Delta BIC are judged as before). Applied without a held reference baseline (with one the absolute
 depth is read against the reference's mesh scale: -1 % / +1 % on the independent records at 3000
 rpm). Where the teeth separate (the healthy model's contact-loss fraction above
-``features_rattle.MIN_CONTACT_LOSS``; docs/calibration.md Sec. 8.14) the model's ratios come from full
-simulations of the rattling model as everywhere (no linear response is assumed), and three things
+``features_rattle.MIN_CONTACT_LOSS``; docs/history/calibration_sessions.md Sec. 8.14) the model's ratios come
+from full simulations of the rattling model as everywhere (no linear response is assumed), and three things
 change: the mesh scale of step 5 is fitted on the candidate's own scoring (bearing path factors and
 envelope scatter fitted against the healthy run at that scale, ``Calibrator._tooth_features``); the
 tooth must explain the record beyond the healthy model at that scale (``Calibrator._refine``: a mesh

@@ -1,5 +1,5 @@
-"""Depth of a named damaged tooth from its transmission-error comb (issue 11; docs/calibration.md
-Sec. 8.25).
+"""Depth of a named damaged tooth from its transmission-error comb (issue 11;
+docs/history/calibration_sessions.md Sec. 8.25).
 
 Where the teeth stay in contact and the record holds the DTE, the depth of the tooth named by the
 fit is read again from the DTE's low sideband families of the damaged wheel's synchronous average

@@ -1,5 +1,5 @@
 """A damaged tooth in contact: its index at the mesh, and (opt-in) its path to the bearings fitted (issue
-11; docs/calibration.md Sec. 8.35).
+11; docs/history/calibration_sessions.md Sec. 8.35).
 
 Where the teeth separate, a damaged tooth's signature at the radial bearing channels enters with a
 fitted complex factor per channel and the tooth is named and its depth set by the channels at the

@@ -1,5 +1,5 @@
 """Mesh-periodic candidates (tooth wear, gear misalignment): what must carry their evidence
-(docs/calibration.md Sec. 8.8).
+(docs/history/calibration_sessions.md Sec. 8.8).
 
 **Periodic effects need periodic evidence.** Wear and misalignment act on every mesh cycle or shaft
 revolution alike: their response is synchronous with the shafts and appears in the order features

@@ -1,5 +1,5 @@
 """Tooth wear from the DTE mean without a reference record, on the record's own baseline-updated model
-(docs/calibration.md Sec. 8.32).
+(docs/history/calibration_sessions.md Sec. 8.32).
 
 With a reference (``--baseline``) the DTE-mean reading of ``candidates_wear_reference.py`` runs on the
 held baseline before any effect is sought. Without one the baseline sets (bearing and mesh stiffness and
@@ -74,12 +74,12 @@ def wear_depth_from_mean_in_round(
     features are the separation response, whose onset the model's own mesh stiffness and damping set:
     on the independent 6000 rpm record with 20 um of wear (the lumped teeth separating 40 % of the time)
     the nominal FE model separates only from about 22 um and the ranking verified 27.6 um (+38 %), while
-    the DTE mean at unit gain stands 5.06 sd above the model and reads 15.7 um (docs/calibration.md Sec.
-    8.34). So the reading runs wherever a wear candidate is verified while no effect has been accepted
-    (``accepted`` empty; the screened temperature is part of the model) and the healthy model stays in
-    contact: the same trigger, depth, profile-scale nuisance and BIC confirmation as after a baseline
-    update. Returns the verified fit (a full run at that depth; two parameters: depth and profile scale)
-    or None (no reading: the ranking's refinement goes on).
+    the DTE mean at unit gain stands 5.06 sd above the model and reads 15.7 um
+    (docs/history/calibration_sessions.md Sec. 8.34). So the reading runs wherever a wear candidate is
+    verified while no effect has been accepted (``accepted`` empty; the screened temperature is part of
+    the model) and the healthy model stays in contact: the same trigger, depth, profile-scale nuisance and BIC
+    confirmation as after a baseline update. Returns the verified fit (a full run at that depth; two
+    parameters: depth and profile scale) or None (no reading: the ranking's refinement goes on).
     """
     if not cal.fit_baseline or accepted or not isinstance(fit.effect, ToothWear):
         return None

@@ -6,15 +6,15 @@ of such an oscillator the response scales with the gap: its shape (the distribut
 share of time in contact, the ratio of the mesh harmonics) does not move with wear, and its
 amplitude at the mesh frequency follows ``A = alpha (b + F0 / k)`` (``F0 = T / r_b`` the static mesh
 force: the drive flank is preloaded by ``F0 / k``). Measured on the DTE at 8000 rpm, 25 C
-(docs/calibration.md Sec. 8.16): 20 um of wear (``b`` 35 -> 55 um) multiplies the amplitude by 1.455
-in the independent lumped gearbox and by 1.460 in the FE model, where the law gives
+(docs/history/calibration_sessions.md Sec. 8.16): 20 um of wear (``b`` 35 -> 55 um) multiplies the amplitude
+by 1.455 in the independent lumped gearbox and by 1.460 in the FE model, where the law gives
 ``1 + 20 / (35 + 9.2) = 1.45``; kurtosis, quantile ratios and ``H2 / H1`` stay within 1-2 % in both.
 
 ``alpha`` is set by the mesh resonance (stiffness, damping): the nominal FE model's is 30 % above the
 lumped gearbox's (2.61 against 2.00 um per um), more than 20 um of wear moves the amplitude, so
 without a reference the amplitude cannot tell wear from model-form error and nothing is claimed
-from it (no scale-free measure of the record separates them either: docs/calibration.md Sec. 8.20).
-A healthy reference record of the same machine (``--baseline``, any speed; the benchmark's is at
+from it (no scale-free measure of the record separates them either: docs/history/calibration_sessions.md
+Sec. 8.20). A healthy reference record of the same machine (``--baseline``, any speed; the benchmark's is at
 2000 rpm, teeth in contact) carries the mesh stiffness and damping scales, and with them ``alpha``
 only as far as it identifies them: the reference fitted at 32 steps per mesh (mesh x1.31, damping
 x1.7) put the model's healthy amplitude within 3.5 % of the lumped record's and the law read 22.8 um
@@ -35,8 +35,8 @@ beyond the BIC threshold and lower the main (family-balanced) error. It is found
 rounds, like the DTE-mean wear in contact (``candidates_wear_reference.py``).
 
 A healthy reference recorded where the teeth separate does carry ``alpha`` (session 12,
-docs/calibration.md Sec. 8.26): fitted there, it saves its DTE amplitude at the first mesh order and
-its model's (``ReferenceBaseline.rattle_amplitude``), and at the same operating point the rule reads
+docs/history/calibration_sessions.md Sec. 8.26): fitted there, it saves its DTE amplitude at the first mesh
+order and its model's (``ReferenceBaseline.rattle_amplitude``), and at the same operating point the rule reads
 against the model's amplitude times their ratio (:func:`rattle_scale`): 19-22 um for 20 on the
 independent records, 23 um on the FE model's own, healthy records 0.4-0.9 sd. The claim then still
 needs the full run to lower the error, which by the oracle of Sec. 8.26 the right depth hardly does at
@@ -107,7 +107,7 @@ def amplitude_spread(nominal: float, members: Sequence[float]) -> float:
     amplitude over the baseline ensemble, not that of the complex coefficient (``features_rattle``
     rule 1 for the order features), which also counts the coefficient's phase: at 8000 rpm on the
     independent wear record against the held 2000 rpm reference the complex spread of the DTE's first
-    mesh order is 10.3 % of it, the amplitude's 5.6 % (docs/calibration.md Sec. 8.20).
+    mesh order is 10.3 % of it, the amplitude's 5.6 % (docs/history/calibration_sessions.md Sec. 8.20).
     """
     m = np.asarray(list(members), dtype=float)
     if m.size == 0:
@@ -185,7 +185,8 @@ def rattle_scale(
     of its model's: the healthy machine and the model are then on the same rattle branch, and the
     ratio measures the model's ``alpha`` error. Beyond, the reference sits on another branch of the
     clearance oscillator (measured on the independent gearbox: healthy at 7500 rpm a 11 um response
-    against the model's 41 um, docs/calibration.md Sec. 8.26) and says nothing about ``alpha``.
+    against the model's 41 um, docs/history/calibration_sessions.md Sec. 8.26) and says nothing about
+    ``alpha``.
 
     Only at the same operating point (speed within :data:`SAME_SPEED`, temperature within
     :data:`SAME_TEMPERATURE_C`): how the model's ``alpha`` error changes with the speed is not known.
@@ -280,7 +281,8 @@ def screen_wear_on_rattle_amplitude(cal: Calibrator, score: Score) -> tuple[Toot
         return None
     if not sc.error < score.error:
         # the claim must lower the main metric it is reported with (family-balanced): at rattle the worn
-        # FE model's DTE mean rises 4x faster than the independent record's (docs/calibration.md Sec. 8.16)
+        # FE model's DTE mean rises 4x faster than the independent record's
+        # (docs/history/calibration_sessions.md Sec. 8.16)
         fam = ", ".join(
             f"{f} {math.sqrt(score.chi2[f] / score.n[f]):.3g} -> {math.sqrt(sc.chi2[f] / sc.n[f]):.3g}"
             for f in score.chi2

@@ -3,8 +3,8 @@
 In contact the static transmission error is ``b + F/k`` (half backlash plus the mean mesh deflection
 under the static mesh force ``F = T / r_b``); flank wear of depth ``h`` adds the uniform removal and
 the mean of the sliding-wear profile, ``1.40 h`` for the paper pair at 25 C (``faults.gear.ToothWear``,
-docs/calibration.md Sec. 8.8). Without a reference the two parts of the mean cannot be told apart:
-a mesh stiffness scale moves ``F/k`` (about 10 um for the paper pair) exactly where wear moves the
+docs/history/calibration_sessions.md Sec. 8.8). Without a reference the two parts of the mean cannot be told
+apart: a mesh stiffness scale moves ``F/k`` (about 10 um for the paper pair) exactly where wear moves the
 mean, and the ranking decides between them on the dynamic features. A healthy reference record of
 the same machine fixes the mesh stiffness scale (``calibration/baseline.py``), hence ``F/k`` at any
 speed and temperature: what the record's DTE mean holds beyond the reference-updated model is then
@@ -35,7 +35,7 @@ The profile's variation is a nuisance (``ToothWear.profile_scale`` in [0, 1], st
 removal ``1.40 h`` does not depend on it, so the depth is still the mean's): how the removal varies
 along the path of contact is Archard's linear sliding law here and the lumped model's own profile
 there, and the two disagree on the mesh harmonics (Sec. 8.12). With the step-grid lines gone from the
-model runs (docs/calibration.md Sec. 8.18) those harmonics decided the confirmation: on the
+model runs (docs/history/calibration_sessions.md Sec. 8.18) those harmonics decided the confirmation: on the
 independent 3000 rpm record (20 um) against the 2000 rpm reference the DTE mean gave 17.7 um and
 brought the static chi^2 from 102 to 6, but the full Archard profile raised the order chi^2 from
 7 948 to 8 788 (the DTE and ``node5_ay`` carriers: the FE profile cancels much of the second and third

@@ -41,7 +41,8 @@ import numpy as np
 FUNDAMENTAL_FAMILY = 1
 #: smallest gain of the fundamental family relative to the median gain of the other families.
 #: A choice made after measuring 0.50-1.27 for damaged teeth and 0.002-0.11 for worn teeth (FE and
-#: independent records, docs/calibration.md Sec. 8.11): a separating value, not a derived one.
+#: independent records, docs/history/calibration_sessions.md Sec. 8.11): a separating value, not a derived
+#: one.
 FUNDAMENTAL_SHARE = 0.25
 
 

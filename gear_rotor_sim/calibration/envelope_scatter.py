@@ -1,5 +1,5 @@
 """A damaged tooth's impacts that scatter from revolution to revolution where the teeth separate
-(issue 11; docs/calibration.md Sec. 8.14).
+(issue 11; docs/history/calibration_sessions.md Sec. 8.14).
 
 Where the teeth stay in contact a damaged tooth changes the response once per revolution of its
 wheel in the same way every time: the change is synchronous with the wheel, lies in its synchronous

@@ -9,7 +9,7 @@ percent off. Where the teeth separate that path carries impacts, and the error g
 8000 rpm on a damaged pinion tooth (tooth 7, depth 0.4) of the independent lumped gearbox, the
 FE signature's bearing-force sidebands are 3-5 times the record's at the true depth and their
 phases alone point to teeth 2-3; scored with them at the model's transfer the depth came out at
-0.157 and the tooth at 3 (docs/calibration.md Sec. 8.11).
+0.157 and the tooth at 3 (docs/history/calibration_sessions.md Sec. 8.11).
 
 Rule (applied with the rattle rules of ``features_rattle.py``): a damaged tooth's signature enters
 each bearing channel multiplied by a complex factor ``a_c`` (amplitude and phase of the path at the
@@ -34,14 +34,14 @@ seen there: its comb on its wheel's shaft at those channels must gain beyond the
 (:func:`mesh_comb_gain`). With the bearing forces made neutral by their factor, nothing else stopped
 a small tooth from reading the rattle's model-form comb at the node accelerations: on the healthy
 8000 rpm record against the held 2000 rpm reference a pinion tooth (28, depth 0.08) took 20 % of
-the excess that way while the DTE's comb got worse (docs/calibration.md Sec. 8.17).
+the excess that way while the DTE's comb got worse (docs/history/calibration_sessions.md Sec. 8.17).
 
 Seen there it must also be a tooth: the family rules of ``comb_families.py`` (a broad comb over the
 sideband families, the fundamental family with the others where the teeth separate) hold for the gain
 at these channels as for the gain over all channels (:func:`mesh_comb_gain_by_family`). On the
 independent worn 8000 rpm record against the 2000 rpm reference fitted at 64 steps per mesh a pinion
 tooth gained 234 at the DTE in sum but only in two families; its broad gain and its fundamental came
-from the node-5 accelerations (docs/calibration.md Sec. 8.21).
+from the node-5 accelerations (docs/history/calibration_sessions.md Sec. 8.21).
 
 Against a held reference baseline (``--baseline``) the rule applies as without one. The reference's
 bearing scales, identified by the lateral modes in contact, are linear properties of the shaft and
@@ -50,9 +50,9 @@ pinion-tooth record about 0.4-0.5 in modulus with the 2000 rpm reference, agains
 one before Sec. 8.17's change of the factor fit); the factor corrects what is left.
 
 A damaged tooth's path is fitted per band (``path_factors(bands=True)``, ``FitSettings.tooth_path_bands``;
-docs/calibration.md Sec. 8.37): one factor for the low orders and one for the sidebands ``h z +- j`` of
-each mesh harmonic ``h``. Between the bands lie the modes that shape the path (at 8000 rpm the FE
-model's mesh mode, 5.3-5.8 kHz, between the first harmonic's sidebands at 3.4-4.3 kHz and the
+docs/history/calibration_sessions.md Sec. 8.37): one factor for the low orders and one for the sidebands
+``h z +- j`` of each mesh harmonic ``h``. Between the bands lie the modes that shape the path (at 8000 rpm
+the FE model's mesh mode, 5.3-5.8 kHz, between the first harmonic's sidebands at 3.4-4.3 kHz and the
 second's at 7.3-8.2 kHz; the independent gearbox's at 6.4 kHz): measured on the independent 8000 rpm
 gear-tooth record against the held 2000 rpm reference, the fitted factors of ``bearing2_fx`` are
 0.14, 0.79 and 0.20 in modulus for the three bands, and with one factor per channel the bearing
@@ -165,7 +165,7 @@ def mesh_comb_gain(cmp: Any, before: ModelFeatures, after: ModelFeatures, shaft:
     (``Calibrator._fit_tooth``); it must also be seen there. On the independent healthy 8000 rpm
     record against the held 2000 rpm reference a pinion tooth (tooth 28, depth 0.08) took 22 % of the
     excess from the node-5 accelerations' rattle comb while the DTE's comb on the pinion shaft got
-    worse (415 -> 572; docs/calibration.md Sec. 8.17)."""
+    worse (415 -> 572; docs/history/calibration_sessions.md Sec. 8.17)."""
     gain = mesh_comb_gain_by_order(cmp, before, after, shaft)
     return float("nan") if gain is None else float(np.sum(gain))
 
@@ -182,7 +182,7 @@ def mesh_comb_gain_by_family(
     independent worn 8000 rpm record (1 s, 20 um) against the 2000 rpm reference fitted at 64 steps
     per mesh (mesh x1.21), a pinion tooth of depth 0.19 gained 234 at the DTE in sum, but per family
     -153, -135, +283, +413, (5 left out), -174: two rattle components, not a tooth; its fundamental
-    family gained only at the node-5 accelerations (docs/calibration.md Sec. 8.21)."""
+    family gained only at the node-5 accelerations (docs/history/calibration_sessions.md Sec. 8.21)."""
     sh = cmp.shafts[shaft]
     gain = mesh_comb_gain_by_order(cmp, before, after, shaft)
     if gain is None or not sh.teeth:
@@ -294,8 +294,8 @@ def path_factors(
     ``min(|model|, |data|)``). Solved once with the weights at ``m + s``, as before, the factor was
     scored at ``m + a s``: on the independent 8000 rpm pinion-tooth record against the held 2000 rpm
     reference (depth 0.3) it came out -0.04+0.07j with a comb chi^2 of ``bearing2_fx`` of 49080,
-    against 7572 with the model's own path ``a = 1`` (docs/calibration.md Sec. 8.17). Now: weighted
-    least squares with the weights iterated to the model they are taken at (at most ``max_iter``
+    against 7572 with the model's own path ``a = 1`` (docs/history/calibration_sessions.md Sec. 8.17). Now:
+    weighted least squares with the weights iterated to the model they are taken at (at most ``max_iter``
     solutions), then a simplex search of the chi^2 itself from the best of those and ``a = 1``; the
     model's path stays a candidate, so the fitted path is never worse than it.
 
@@ -311,7 +311,7 @@ def path_factors(
     bands : bool
         One factor per channel and path band (:func:`order_bands`: the low orders and the sidebands of
         each mesh harmonic), each fitted on its band's comb alone; shape ``(channels, bands)``
-        (docs/calibration.md Sec. 8.37). Else one factor per channel, shape ``(channels,)``.
+        (docs/history/calibration_sessions.md Sec. 8.37). Else one factor per channel, shape ``(channels,)``.
     """
     if bands:
         ob = order_bands(cmp)

@@ -5,7 +5,7 @@ The envelope family compares ``g^4 S_model`` with the measured squared-envelope 
 The gain ``g`` fitted on the order features sits where the mesh carriers put it: on records of a
 structurally different model the carriers' model-form misfit drove every gain to its 0.8 bound
 (the sensors' true gains were 0.97-1.03) and every envelope-based force came out ``1 / 0.8 = 1.25``
-times too large (docs/calibration.md Sec. 8.7).
+times too large (docs/history/calibration_sessions.md Sec. 8.7).
 
 The gain of a sensor is one number per channel, and a DC-coupled force sensor under a bearing
 measures it directly: the radial static load of a bearing follows from equilibrium alone (the mesh
@@ -106,7 +106,7 @@ def modulation_sidebands_hz(effect: BearingDefect, shaft_hz: float, orders: int 
     defect's own content, never the noise floor its line is judged against: with them in the floor the
     BPFI line of the independent 3000 rpm inner-race record was refused at 2.90 and 3.46 x the floor
     (threshold 4); on the same spectrum, measured by hand, the line stands 4.1-4.5 x above the
-    bins between the sidebands (docs/calibration.md Sec. 8.13).
+    bins between the sidebands (docs/history/calibration_sessions.md Sec. 8.13).
     """
     if effect.kind == "outer":
         return []
@@ -137,8 +137,8 @@ def anti_aliased_impacts(
     (``solver.decimate.design_taps``: flat to 0.4 fs, stop from 0.5 fs), centred on each output
     sample. The rest of the model's stream (the shaft's answer to the impact, every other channel)
     passes that filter; a measurement chain low-passes before sampling the same way
-    (docs/calibration.md Sec. 8.30). The plain average over the output interval that this replaces
-    is a ``sinc`` low-pass, 0.96 of the passband at 3 kHz and 0.82 at 6.7 kHz for 20 kHz sampling.
+    (docs/history/calibration_sessions.md Sec. 8.30). The plain average over the output interval that this
+    replaces is a ``sinc`` low-pass, 0.96 of the passband at 3 kHz and 0.82 at 6.7 kHz for 20 kHz sampling.
     """
     from gear_rotor_sim.solver.decimate import design_taps, filter_delay, fir_decimate
 

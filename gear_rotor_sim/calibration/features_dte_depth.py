@@ -1,5 +1,5 @@
 """A damaged tooth's signature in the transmission error, below the mesh carriers' dynamics (issue 11;
-docs/calibration.md Sec. 8.25).
+docs/history/calibration_sessions.md Sec. 8.25).
 
 A tooth whose stiffness drops by a fraction ``d`` raises the elastic mesh deflection while it is
 engaged: once per revolution of its wheel the dynamic transmission error (DTE) carries a short pulse
@@ -12,7 +12,7 @@ energy of the orders ``k``, ``z - k`` and ``z + k``):
   the sensor (``fault_path.mesh_channels``), and a DTE from two shaft encoders has no sensor gain. The
   bearing forces and housing accelerations see the same pulse through the shaft-bearing transfer,
   whose model form (lateral modes near the mesh harmonics) moves their sidebands by factors of 2-4
-  between two models of one gearbox (docs/calibration.md Sec. 8.25);
+  between two models of one gearbox (docs/history/calibration_sessions.md Sec. 8.25);
 * at and below the first mesh carrier the DTE follows the quasi-static deflection ``F / k(t)``: the
   pulse's low orders are its area, the compliance-time the damaged tooth adds in one revolution,
   which depends on the stiffness-time the tooth loses (the same in any model that reduces that

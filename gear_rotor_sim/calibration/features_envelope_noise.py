@@ -1,4 +1,5 @@
-"""Noise model of the squared-envelope spectrum (issue 11; ``docs/calibration.md`` Sec. 8.15).
+"""Noise model of the squared-envelope spectrum (issue 11; ``docs/history/calibration_sessions.md``
+Sec. 8.15).
 
 The envelope family compares the Welch-averaged power spectrum of the squared envelope ``|a|^2`` of a
 band-passed channel (``residual.envelope_power_spectrum``: Hann segments, 50 % overlap, segment mean
@@ -23,12 +24,12 @@ the floor and its scatter, whatever the machine:
   variances, not 3 (:func:`bin_sum_variance_factor`: 1.61). Measured on white noise: 1.69-1.72 (the
   rest: overlap and the non-Gaussian squared envelope).
 
-The default since session 11 (``ResidualSettings.envelope_noise_corrected``, docs/calibration.md
-Sec. 8.23; ``False`` restores the flat floor and the plain count, under which pure noise scores 4.9).
-With it a bearing defect whose own lines pass the signature checks qualifies also on its share of the
-envelope family's excess (:func:`envelope_excess_share`): with the bin variances 1.61 times larger its
-envelope gain weighs less against the order family's model-form excess, which no bearing defect
-touches (the contact inner race: 14.5 % of the whole excess, 25 % needed).
+The default since session 11 (``ResidualSettings.envelope_noise_corrected``,
+docs/history/calibration_sessions.md Sec. 8.23; ``False`` restores the flat floor and the plain count, under
+which pure noise scores 4.9). With it a bearing defect whose own lines pass the signature checks qualifies
+also on its share of the envelope family's excess (:func:`envelope_excess_share`): with the bin variances 1.61
+times larger its envelope gain weighs less against the order family's model-form excess, which no bearing
+defect touches (the contact inner race: 14.5 % of the whole excess, 25 % needed).
 
 Assumes: the noise is white within the band (one octave; a sensor's or a housing resonance's
 colouring within it bends the true floor away from this shape: measured on Gaussian noise, smooth
@@ -163,9 +164,9 @@ def envelope_excess_share(before: Any, after: Any) -> float:
     The acceptance share of a bearing defect whose own lines passed the signature checks
     (``Calibrator._signature_check``: a significant gain on its characteristic lines and one of them
     6 dB above the local floor), used next to its share of the whole balanced excess, as a damaged
-    tooth's share of its own comb's excess is (docs/calibration.md Sec. 8.23). A defect's impacts act
-    on the envelope family only; where the order family's model-form excess (which no bearing defect
-    touches) dominates the whole excess, the whole-excess share reads a correctly placed defect as
+    tooth's share of its own comb's excess is (docs/history/calibration_sessions.md Sec. 8.23). A defect's
+    impacts act on the envelope family only; where the order family's model-form excess (which no bearing
+    defect touches) dominates the whole excess, the whole-excess share reads a correctly placed defect as
     unimportant (the contact inner race: 16 % of the whole excess with the corrected bin count).
 
     Parameters

@@ -8,8 +8,8 @@ oscillation: its mesh harmonics, their sidebands and the low orders it produces 
 the uncertain baseline. Measured on the FE model at 8000 rpm (healthy, 23 % contact loss): mesh
 stiffness x0.9 / x1.1, mesh damping x0.7 / x1.4 and bearing stiffness x0.8 / x1.25 change the
 mesh carriers by 20-60 % and the low orders and sidebands of the accelerations by 100-400 % of
-their own size (``docs/calibration.md`` Sec. 8.9). A model-form tolerance of 5 % on them reads that
-uncertainty as fault evidence, and a fault's fit is then pulled by the rattle's own content at the
+their own size (``docs/history/calibration_sessions.md`` Sec. 8.9). A model-form tolerance of 5 % on them
+reads that uncertainty as fault evidence, and a fault's fit is then pulled by the rattle's own content at the
 fault's orders (an eccentricity fitted +140 % from the pinion's order-1 acceleration, which the
 rattle of the healthy machine dominates).
 
@@ -18,11 +18,11 @@ Five rules, applied only when the healthy model's teeth separate (contact-loss f
 
 1. **Sensitivity ensemble** (:func:`ensemble_variance`). The healthy model is run at each member of
    :data:`ENSEMBLE` (a plausible spread of the uncertain baseline: mesh damping x0.5 / x2 since
-   session 11, docs/calibration.md Sec. 8.23); the variance of each order
+   session 11, docs/history/calibration_sessions.md Sec. 8.23); the variance of each order
    coefficient over the members (mean squared deviation from the nominal run) is added to its
    uncertainty; likewise for each channel mean (:func:`static_ensemble_variance`, since session 12:
-   the DTE mean at rattle is a rattle product, docs/calibration.md Sec. 8.26). Features the baseline
-   cannot pin down (rattle products) lose their weight; the kinematic and quasi-static ones (the
+   the DTE mean at rattle is a rattle product, docs/history/calibration_sessions.md Sec. 8.26). Features
+   the baseline cannot pin down (rattle products) lose their weight; the kinematic and quasi-static ones (the
    order-1 DTE of an eccentricity, ``e`` along the line of action; the order-1 bearing forces of an
    unbalance, a lever rule; the bearing forces' means, set by equilibrium) keep it, because the
    healthy model has almost nothing there to vary.
@@ -75,7 +75,7 @@ from gear_rotor_sim.faults import BearingStiffnessDamping, Effect, MeshStiffness
 #: spread of the DTE's mesh-frequency amplitude (the rattle wear trigger, ``candidates_wear_rattle``).
 #: The mesh damping spans x0.5 / x2: the paper gives none (the model's ratio 0.07 is chosen) and it
 #: depends on the lubricant film, load and speed, so a factor of two either way is what a user can
-#: claim without a test (docs/calibration.md Secs. 8.19, 8.23).
+#: claim without a test (docs/history/calibration_sessions.md Secs. 8.19, 8.23).
 ENSEMBLE: tuple[Effect, ...] = (
     MeshStiffnessDamping(stiffness_scale=0.9),
     MeshStiffnessDamping(stiffness_scale=1.1),
@@ -86,9 +86,9 @@ ENSEMBLE: tuple[Effect, ...] = (
 )
 #: The members whose relative spread sets rule 3's per-channel tolerance (one number per channel for
 #: every order, fault signatures included): the mesh damping at x0.7 / x1.4, the range that tolerance
-#: was set with (session 7). Measured (docs/calibration.md Sec. 8.23): taken from :data:`ENSEMBLE`
-#: the DTE's tolerance doubles (0.117 -> 0.220 against the 2000 rpm reference), and the DTE, which
-#: names a damaged tooth where the teeth separate, then reads pinion tooth 6 for 7; the per-feature
+#: was set with (session 7). Measured (docs/history/calibration_sessions.md Sec. 8.23): taken from
+#: :data:`ENSEMBLE` the DTE's tolerance doubles (0.117 -> 0.220 against the 2000 rpm reference), and the DTE,
+#: which names a damaged tooth where the teeth separate, then reads pinion tooth 6 for 7; the per-feature
 #: variance of rule 1 from :data:`ENSEMBLE` alone keeps tooth 7.
 TOLERANCE_ENSEMBLE: tuple[Effect, ...] = (
     MeshStiffnessDamping(stiffness_scale=0.9),
@@ -155,8 +155,8 @@ def static_ensemble_variance(nominal: np.ndarray, members: Sequence[np.ndarray])
 
     Where the teeth separate the DTE mean is no static deflection but the small difference of the
     drive and back flanks' contributions, each its time share times its mean position (+-20-25 um at
-    8000 rpm), 1-5 % of the rattle amplitude (docs/calibration.md Sec. 8.20): the uncertain mesh damping
-    moves it by more than itself (FE model, x0.7 / x1.4: -0.4 / 4.4 um for 1.4 um), and the wear
+    8000 rpm), 1-5 % of the rattle amplitude (docs/history/calibration_sessions.md Sec. 8.20): the uncertain
+    mesh damping moves it by more than itself (FE model, x0.7 / x1.4: -0.4 / 4.4 um for 1.4 um), and the wear
     moves it at 0.12-0.52 um per um depending on that damping. A mean set by equilibrium (a bearing
     force: load sharing by geometry) hardly moves over the ensemble and keeps its weight.
     """

@@ -4,8 +4,8 @@ A tooth whose stiffness drops by a fraction ``d`` modulates the mesh stiffness o
 its wheel: in that wheel's synchronous average it puts sidebands at ``m z +- k`` around every mesh
 carrier ``m z``. The absolute sideband amplitude is ``delta0 d`` times the transfer of the machine
 (``delta0 = F / k`` the elastic mesh deflection), so read against a model whose mesh stiffness is a
-third off it gives a depth a third off (``docs/calibration.md`` Sec. 8.7). The carrier of the same
-record and channel comes from the regular stiffness variation of the same mesh, through the same
+third off it gives a depth a third off (``docs/history/calibration_sessions.md`` Sec. 8.7). The carrier of
+the same record and channel comes from the regular stiffness variation of the same mesh, through the same
 sensor and (within ``+- k`` shaft orders) nearly the same transfer path, so the ratio
 
 ``SER_m = sqrt(sum_{k = 1..K} |c_{m z - k}|^2 + |c_{m z + k}|^2) / |c_{m z}|``
@@ -30,7 +30,7 @@ property of the tooth pair: contact ratio, single- and double-contact stiffness)
 Assumes a known speed (order tracking), and that the model reproduces how the sidebands grow with
 the depth: in continuous contact a linear response to the stiffness modulation; where the teeth
 separate the sidebands are impact products, and the model's ratios come from full simulations of the
-rattling model (``candidates_tooth.py``; docs/calibration.md Sec. 8.14).
+rattling model (``candidates_tooth.py``; docs/history/calibration_sessions.md Sec. 8.14).
 """
 
 from __future__ import annotations

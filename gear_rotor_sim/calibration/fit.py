@@ -39,12 +39,12 @@ probabilities ``1 / (1 + exp(-Delta/2))`` (Kass & Raftery 1995), so an effect th
 alternative explanation is reported with a low confidence. Parameter uncertainty: from the
 curvature of chi^2 (scalar fits) or the normal matrix (linear fits), scaled by the reduced chi^2.
 
-Modules (split in session 16, docs/calibration.md Sec. 8.40): this one keeps the constructor and the
-search loop (:meth:`Calibrator.run`); the settings and results are in ``fit_types.py``; the calibrator's
-other methods are mixins by concern: ``fit_model.py`` (model runs and features), ``fit_screens.py``
-(screens before the rounds, the baseline stage), ``fit_candidates.py`` (step 3), ``fit_verify.py``
-(a candidate's own signature, consistency), ``fit_refine.py`` (refinement on full simulations);
-``synthetic.py`` makes the self-test's records. The names are importable from here as before.
+Modules (split in session 16, docs/history/calibration_sessions.md Sec. 8.40): this one keeps the constructor
+and the search loop (:meth:`Calibrator.run`); the settings and results are in ``fit_types.py``;
+the calibrator's other methods are mixins by concern: ``fit_model.py`` (model runs and features),
+``fit_screens.py`` (screens before the rounds, the baseline stage), ``fit_candidates.py`` (step 3),
+``fit_verify.py`` (a candidate's own signature, consistency), ``fit_refine.py`` (refinement on full
+simulations); ``synthetic.py`` makes the self-test's records. The names are importable from here as before.
 """
 
 from __future__ import annotations

@@ -38,9 +38,9 @@ from gear_rotor_sim.faults import (
 )
 
 #: largest contact-loss fraction of the healthy model run for the exact order features, the
-#: accelerations from the velocities and the envelope-band fallback (docs/calibration.md Sec. 8.18):
-#: measured where the teeth stay in contact; where they separate (8000 rpm) the first two raised the
-#: healthy record's floor against the 2000 rpm reference (2.24 -> 3.26 -> 4.04) under the rattle rules
+#: accelerations from the velocities and the envelope-band fallback (docs/history/calibration_sessions.md
+#: Sec. 8.18): measured where the teeth stay in contact; where they separate (8000 rpm) the first two raised
+#: the healthy record's floor against the 2000 rpm reference (2.24 -> 3.26 -> 4.04) under the rattle rules
 #: of features_rattle.py, which were built on the resampled features and direct accelerations
 EXACT_ORDERS_MAX_CONTACT_LOSS = 0.01
 
@@ -66,7 +66,8 @@ class ModelAccess:
         """Channels whose transfer of ``e``'s signature is a fitted nuisance where the teeth separate
         (``fault_path.py``): the radial bearing channels for a damaged tooth, every channel but the axial
         forces for a misaligned wheel (``candidates_misalignment.py``); None otherwise. Also against a
-        held reference baseline (docs/calibration.md Sec. 8.17: a tooth must then gain at the mesh)."""
+        held reference baseline (docs/history/calibration_sessions.md Sec. 8.17: a tooth must then gain at
+        the mesh)."""
         mask = getattr(self.cmp, "fault_path", None)
         if mask is None:
             # in contact: a damaged tooth's path only (candidates_tooth_path.py, Sec. 8.35)
@@ -128,7 +129,7 @@ class ModelAccess:
         self.base_contact_loss = float(self.runner.last_contact_loss)
         if not (self.reference_numerics and self.base_contact_loss <= EXACT_ORDERS_MAX_CONTACT_LOSS):
             # where the teeth separate the order features stay those of the linear resampling and
-            # the accelerations the simulator's own (docs/calibration.md Sec. 8.18)
+            # the accelerations the simulator's own (docs/history/calibration_sessions.md Sec. 8.18)
             self.cmp.set_exact_orders(False)
             self.cmp.band_fallback = False
             if self.runner.accel_from_velocity or self.runner.exact_modal_map is not None:
@@ -155,8 +156,8 @@ class ModelAccess:
 
     def _choose_steps(self, channels: list[int]) -> None:
         """Steps per mesh period of every model run from the healthy model's own convergence at this
-        operating point (``model_steps.py``, docs/calibration.md Sec. 8.24), from the count set at
-        construction (32; 64 against a held reference), judged at ``channels`` (those measured at a
+        operating point (``model_steps.py``, docs/history/calibration_sessions.md Sec. 8.24), from the count
+        set at construction (32; 64 against a held reference), judged at ``channels`` (those measured at a
         bearing: the envelope family's inputs). A record without such a channel keeps the count."""
 
         def run(n: int) -> np.ndarray:

@@ -91,7 +91,7 @@ class Verification:
             # a damaged tooth raises the whole comb; one sideband family alone is a response component
             # at one frequency (e.g. a rattle subharmonic locked to a shaft order): comb_families.py;
             # where the teeth separate rattle components lock onto several shaft orders at once, so the
-            # fundamental family must gain with the others (docs/calibration.md Sec. 8.16)
+            # fundamental family must gain with the others (docs/history/calibration_sessions.md Sec. 8.16)
             fams = comb_gain_by_family(self.cmp, (self._cur_feat, cur), (fit.feats, fit.score), own)
             thr = self.fit.bic_threshold + math.log(self.n_total)
             at_rattle = bool(getattr(self, "_at_rattle", False))
@@ -103,7 +103,7 @@ class Verification:
             if not why and self._path_mask(e) is not None:
                 # where its path is fitted the tooth is named at the mesh, and seen there as a tooth:
                 # a broad comb with its fundamental, not the gain of two rattle components
-                # (fault_path.mesh_comb_gain_by_family; docs/calibration.md Sec. 8.21)
+                # (fault_path.mesh_comb_gain_by_family; docs/history/calibration_sessions.md Sec. 8.21)
                 mfams = mesh_comb_gain_by_family(self.cmp, self._cur_feat, fit.feats, own)
                 self.log(f"  {e.label}: at the mesh (DTE) {dict((j, round(v)) for j, v in mfams.items())}")
                 why = narrow_comb_reason(
@@ -193,7 +193,7 @@ class Verification:
         the predicted sidebands' level decided which bins were the floor). The bins of the defect's own
         modulation sidebands (``sidebands``: offsets from the kinematics,
         ``features_bearing.modulation_sidebands_hz``) are left out first where at least 3 others
-        remain, whatever the candidate predicts there (docs/calibration.md Sec. 8.13).
+        remain, whatever the candidate predicts there (docs/history/calibration_sessions.md Sec. 8.13).
         """
         f = self.cmp.env_f
         best = 0.0

@@ -22,10 +22,11 @@ allowed. Gaps in the time column and NaN runs are never interpolated: they are e
 (``nan_policy="error"``) or reported in :attr:`Measurement.issues` while the longest clean
 contiguous segment is kept (``nan_policy="longest_segment"``).
 
-Modules (split in session 16, docs/calibration.md Sec. 8.40): this one keeps the CSV loader and writer and
-:func:`load_measurement`; the contract's types and field parsing are in ``measurement_contract.py``, the
-checks on the data (time axis, gaps, NaN runs, magnitudes, spikes, SI) in ``measurement_checks.py``, the
-MCAP and MATLAB loaders in ``measurement_files.py``. The names are importable from here as before.
+Modules (split in session 16, docs/history/calibration_sessions.md Sec. 8.40): this one keeps the CSV loader
+and writer and :func:`load_measurement`; the contract's types and field parsing are in
+``measurement_contract.py``, the checks on the data (time axis, gaps, NaN runs, magnitudes, spikes, SI) in
+``measurement_checks.py``, the MCAP and MATLAB loaders in ``measurement_files.py``. The names are importable
+from here as before.
 """
 
 from __future__ import annotations

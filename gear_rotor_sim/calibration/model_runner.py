@@ -98,8 +98,8 @@ def cached_system(cfg: object, temperature_c: float) -> object:
 #: 48 on the dt rule locates the mesh-table jumps inside the steps (``solver/dt_rule.py``); at 32 they
 #: are taken at the step instants and the timing error repeats with the step grid's beat against the
 #: tooth count, which puts numerical lines at every shaft order between the mesh harmonics
-#: (docs/calibration.md Sec. 8.18: ``bearing2_fx`` 1.35 N RMS over the non-carrier pinion orders at
-#: 3000 rpm, 0.015 N at 64 located). Without a reference the count starts at 32. Either is the first
+#: (docs/history/calibration_sessions.md Sec. 8.18: ``bearing2_fx`` 1.35 N RMS over the non-carrier pinion
+#: orders at 3000 rpm, 0.015 N at 64 located). Without a reference the count starts at 32. Either is the first
 #: count of the convergence rule of the diagnosis (``model_steps.py``, Sec. 8.24), which doubles it
 #: where the healthy model's non-synchronous part is not converged (4500 rpm / 75 C: 64 from 32).
 REFERENCE_STEPS_PER_MESH = 64
@@ -157,9 +157,9 @@ class ModelRunner:
     #: a mesh-force run, ``model_misalignment.py``); False: the effects as given
     instantaneous_misalignment: bool = True
     #: the simulator's integration map (``Simulator(exact_modal_map=...)``): None the dt rule's choice,
-    #: True the exact modal propagator (no period error at the resolved modes; docs/calibration.md
-    #: Sec. 8.21: with Newmark's map at 64 steps per mesh the 2000 rpm reference's mesh scale is x1.199,
-    #: x1.107 at 256 steps, x1.111 with the exact map at 64)
+    #: True the exact modal propagator (no period error at the resolved modes;
+    #: docs/history/calibration_sessions.md Sec. 8.21: with Newmark's map at 64 steps per mesh the 2000 rpm
+    #: reference's mesh scale is x1.199, x1.107 at 256 steps, x1.111 with the exact map at 64)
     exact_modal_map: bool | None = None
     #: bearing-defect impacts' direct path through the simulator's anti-aliasing decimation like the
     #: rest of the stream (``add_direct_bearing_forces``, Sec. 8.30); False (the default): averaged
@@ -329,8 +329,8 @@ def add_direct_bearing_forces(
     samples at 20 kHz) is averaged over each sample interval (``sub_samples`` points) so that its
     impulse is kept whatever its phase against the sampling; ``anti_alias=True`` passes it through
     the simulator's anti-aliasing decimation like the rest of the stream instead
-    (``features_bearing.anti_aliased_impacts``; opt-in, docs/calibration.md Sec. 8.30). Constant
-    speed; shaft angle 0 at model time 0 (the measured-data contract).
+    (``features_bearing.anti_aliased_impacts``; opt-in, docs/history/calibration_sessions.md Sec. 8.30).
+    Constant speed; shaft angle 0 at model time 0 (the measured-data contract).
     """
     from types import SimpleNamespace
 

@@ -6,8 +6,8 @@ and returns to the contact setting after a window in continuous contact. A calib
 from static equilibrium; the start-up transient of a strong once-per-revolution excitation can
 separate the teeth for a few steps although the steady response stays in contact (measured: the
 FE paper gearbox at 3000 rpm with a 15 um pinion eccentricity, 2 steps of free flight in the first
-0.1 s, none afterwards; 10 um: none; since docs/calibration.md Sec. 8.33 at phase -2 rad, none at
-0.5). The rule then runs in its contact-loss setting until about 0.2 s, i.e. into the analysed
+0.1 s, none afterwards; 10 um: none; since docs/history/calibration_sessions.md Sec. 8.33 at phase -2 rad,
+none at 0.5). The rule then runs in its contact-loss setting until about 0.2 s, i.e. into the analysed
 window that starts after the 0.15 s warm-up, and the response there differs from the steady one:
 the non-synchronous part of ``bearing2_fy`` holds 19 N RMS in 0.10-0.20 s against the steady 0.5 N
 (the same run with the rule off: 0.5-0.7 N throughout).

@@ -6,8 +6,8 @@ Whether a count is fine enough depends on the operating point: the mesh-stiffnes
 entering or leaving contact) fall between step instants by a fraction of a step that repeats with the
 beat of the step grid against the tooth count. At 3000 rpm and a 20 kHz output the grid holds 1200
 steps per pinion revolution and that error is synchronous with the pinion (lines at its orders,
-docs/calibration.md Sec. 8.18); at 4500 rpm / 75 C the grid is not a whole number of steps per
-revolution and the same error is *non-synchronous*: the FE paper gearbox's healthy run at 32 steps
+docs/history/calibration_sessions.md Sec. 8.18); at 4500 rpm / 75 C the grid is not a whole number of steps
+per revolution and the same error is *non-synchronous*: the FE paper gearbox's healthy run at 32 steps
 holds 17.6 N (20 % of the RMS) at ``bearing2_fx`` that every shaft's synchronous average leaves,
 0.43 N at 64 and 0.22 N at 128 (Sec. 8.22, "cause B"; Sec. 8.24). That content decides which signal
 the envelope family analyses (the non-synchronous part only where the healthy model is periodic,
@@ -43,9 +43,9 @@ import numpy as np
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 
 #: largest RMS difference of the healthy model's non-synchronous part between ``n`` and ``2 n`` steps
-#: per mesh period, as a fraction of the measured noise of the channel (docs/calibration.md Sec. 8.24).
-#: Measured (worst channel) on the 27 table records: 0.006-0.44 at 32 steps (kept), and the 4500 rpm /
-#: 75 C records 7.5-12.2 at 32 (0.10-0.16 at 64); the FE model's own noise-free record at 3000 rpm
+#: per mesh period, as a fraction of the measured noise of the channel (docs/history/calibration_sessions.md
+#: Sec. 8.24). Measured (worst channel) on the 27 table records: 0.006-0.44 at 32 steps (kept), and the 4500
+#: rpm / 75 C records 7.5-12.2 at 32 (0.10-0.16 at 64); the FE model's own noise-free record at 3000 rpm
 #: (``test_faults_calibrate``, whose only "noise" is its own 32-step numerics) 0.47-0.52. 0.5 sent that
 #: record to 64 steps, where the gear tooth reads tooth 6 for 5 (the gear tooth index at 64 steps is
 #: itself not converged, Sec. 8.21 item 1); 1 lies a factor 1.9 above 0.52 and 7.5 below 7.5

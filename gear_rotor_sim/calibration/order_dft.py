@@ -8,7 +8,7 @@ pinion revolution, resampled to 512) the mesh harmonics 3-7 (pinion orders 87-20
 pinion orders 25, 4, 33, 62 and 91, sidebands of the mesh carriers by position but images by
 origin: the 4th mesh harmonic at 0.29 fs leaves 12.5 % of itself at order 4. The images are the same
 for a model and a measurement only if the two agree on the harmonics above the analysed ones, which
-two models of a gearbox do not (Sec. 8.18 of docs/calibration.md: on the independent healthy
+two models of a gearbox do not (Sec. 8.18 of docs/history/calibration_sessions.md: on the independent healthy
 3000 rpm record the pinion orders 4, 25, 33 of the housing-side acceleration carried 1/3 of the
 order chi^2 after the reference baseline).
 

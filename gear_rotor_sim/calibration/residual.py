@@ -26,8 +26,8 @@ Metrics reported per channel: ``time`` (relative RMS of the aligned time residua
 normalised RMS residual). The main metric is the family-balanced normalised RMS residual
 ``E = sqrt(mean_f chi2_f / N_f)``: 1 means "explained to within the noise level".
 
-Modules (split in session 16, docs/calibration.md Sec. 8.40): this one keeps :class:`Comparison` (the
-measured features, their noise and the scoring); its envelope family is the mixin of
+Modules (split in session 16, docs/history/calibration_sessions.md Sec. 8.40): this one keeps
+:class:`Comparison` (the measured features, their noise and the scoring); its envelope family is the mixin of
 ``residual_envelope.py``; the model runs and their cache are in ``model_runner.py``, the features of one
 signal and the plain metrics in ``signal_features.py``, the settings and feature types in
 ``residual_types.py``. The names are importable from here as before.
@@ -506,10 +506,10 @@ class Comparison(EnvelopeFeatures):
         is a few percent off there the carriers' misfit is not a sensor's: on every 3000 rpm record of
         the independent benchmark all gains sat at their 0.8 bound (the sensors' true gains 0.97-1.03),
         and an order-1 effect fitted through them read ``1 / 0.8`` too large (gear eccentricity +24 %,
-        unbalance +22 %; docs/calibration.md Sec. 8.22). A shaft order tens of Hz to a few hundred Hz is
-        off the carriers' transfer path; what it shares with them is the sensor. So it takes the sensor
-        gain where the channel's mean identifies one (a radial bearing force: ``measured mean / model
-        mean`` of an equilibrium load, ``features_bearing.static_sensor_gains``), else the nominal 1 (a
+        unbalance +22 %; docs/history/calibration_sessions.md Sec. 8.22). A shaft order tens of Hz to a few
+        hundred Hz is off the carriers' transfer path; what it shares with them is the sensor. So it takes
+        the sensor gain where the channel's mean identifies one (a radial bearing force: ``measured mean /
+        model mean`` of an equilibrium load, ``features_bearing.static_sensor_gains``), else the nominal 1 (a
         calibrated sensor; an encoder angle difference has no gain). Held gains (the rattle rules) are 1.
         """
         if self.gains_held or not self.s.fit_gain:

@@ -120,11 +120,12 @@ class ResidualSettings:
     envelope_static_gain: bool = True
     #: order features far below the mesh band (each shaft's orders 1-6, under half the mesh
     #: frequency) take the channel's sensor gain from its mean (radial bearing forces) or the nominal 1,
-    #: never the gain the mesh carriers set (their model-form misfit; docs/calibration.md Sec. 8.22)
+    #: never the gain the mesh carriers set (their model-form misfit; docs/history/calibration_sessions.md
+    #: Sec. 8.22)
     shaft_order_static_gain: bool = True
-    #: the envelope's noise model (``features_envelope_noise``, docs/calibration.md Secs. 8.15, 8.23):
-    #: a floor shaped like white noise through the band-pass, and the 3-bin sum counted as 3 / 1.61
-    #: independent bins, so that pure noise scores 1. ``False``: the old flat floor and plain count
+    #: the envelope's noise model (``features_envelope_noise``, docs/history/calibration_sessions.md
+    #: Secs. 8.15, 8.23): a floor shaped like white noise through the band-pass, and the 3-bin sum counted as
+    #: 3 / 1.61 independent bins, so that pure noise scores 1. ``False``: the old flat floor and plain count
     #: (pure noise scores 4.9), kept only to reproduce results before session 11
     envelope_noise_corrected: bool = True
     #: with the reference numerics (a held reference and its fit, where the healthy model stays in
@@ -133,7 +134,7 @@ class ResidualSettings:
     #: (x1.309 / 1.199 / 1.121 / 1.107 at 32 / 64 / 128 / 256 steps per mesh on the independent 2000 rpm
     #: record; x1.111 / damping x1.7 with the exact map at 64). With it on, the contact tooth depth against
     #: the reference is read from the DTE comb (``candidates_tooth_dte.dte_depth_applies``). Off by default:
-    #: measured on the independent benchmark (docs/calibration.md Sec. 8.27) three rattle rows that pass
-    #: against the unconverged reference fail against the converged one (23 of 27 with ``--baseline``),
-    #: and the converged reference's mesh damping sits at its grid edge (not identified)
+    #: measured on the independent benchmark (docs/history/calibration_sessions.md Sec. 8.27) three rattle
+    #: rows that pass against the unconverged reference fail against the converged one (23 of 27 with
+    #: ``--baseline``), and the converged reference's mesh damping sits at its grid edge (not identified)
     reference_exact_map: bool = False

@@ -63,7 +63,7 @@ def baseline_no_rival(cal: Calibrator, fit: CandidateFit) -> bool:
     at the wheel's order 1 whatever its stiffness and damping scales, so a baseline set explains other
     content, not the tilt. On the held-out 0.6 mrad record at 3000 rpm the mesh set's basis Delta BIC
     1.00e4, itself skipped in that round for its share, refused the verified misalignment (7.0e3,
-    100 % of the axial excess; docs/calibration.md Sec. 8.34, 8.38).
+    100 % of the axial excess; docs/history/calibration_sessions.md Sec. 8.34, 8.38).
     """
     return (
         cal.fit.misalignment_axial

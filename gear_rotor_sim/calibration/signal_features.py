@@ -92,8 +92,8 @@ def order_coefficients(
     exact : bool
         Each revolution's Fourier integral from the samples (``order_dft.py``, no images); False:
         the record resampled to ``2^k`` points per revolution by linear interpolation (computed
-        order tracking as before session 9, kept where the teeth separate: docs/calibration.md
-        Sec. 8.18).
+        order tracking as before session 9, kept where the teeth separate:
+        docs/history/calibration_sessions.md Sec. 8.18).
 
     Returns
     -------

@@ -171,7 +171,7 @@ class BearingDefect(Effect):
     as the speed rises (0.10 ms at 3000 rpm, 0.038 ms at 8000 rpm on the 6206); ``pulse_s`` fixes
     the duration instead. Where the pulse is shorter than the sampling interval only its impulse is
     observed, and a fixed 0.1 ms pulse read an impact of the true transit time at 8000 rpm as half
-    its peak force (docs/calibration.md Sec. 8.9):
+    its peak force (docs/history/calibration_sessions.md Sec. 8.9):
 
     * outer race: fixed at ``defect_angle_rad``; BPFO; no modulation;
     * inner race: rotates with the shaft (``theta + defect_angle_rad``); BPFI; load-zone
@@ -192,7 +192,7 @@ class BearingDefect(Effect):
     slip : float
         Relative standard deviation of the inter-impact interval (0.01-0.02 in real bearings). A
         calibration fits it on the defect's direct path (``calibration.candidates_bearing.fit_slip``,
-        docs/calibration.md Sec. 8.36).
+        docs/history/calibration_sessions.md Sec. 8.36).
     load_angle_rad : float, optional
         Direction of the bearing load (centre of the load zone) in the x-y plane, rad. Default: the
         direction of the bearing's static force on the housing in the model the defect acts on
@@ -212,7 +212,8 @@ class BearingDefect(Effect):
         Share of the impact's reaction that acts on the shaft (:meth:`force_amplitudes`), 1 the full
         internal pair. A calibration nuisance, not a finding: the race's share reaches a force sensor
         under the bearing directly, the shaft's through the shaft-bearing dynamics in the kHz band,
-        which a model knows least (docs/calibration.md Sec. 8.30; ``calibration/candidates_bearing.py``).
+        which a model knows least (docs/history/calibration_sessions.md Sec. 8.30;
+        ``calibration/candidates_bearing.py``).
     """
 
     kind: str = "outer"
@@ -285,7 +286,7 @@ class BearingDefect(Effect):
         an envelope analysed there identifies ``force_n tau`` and not the peak force alone: the
         fitted ``force_n`` is the peak force of the identified impulse over the nominal spall
         (``spall_width_m``), and a real spall of width ``w`` had a peak force
-        ``force_n * spall_width_m / w`` (docs/calibration.md Sec. 8.13)."""
+        ``force_n * spall_width_m / w`` (docs/history/calibration_sessions.md Sec. 8.13)."""
         return 2.0 / math.pi * self.force_n * self.impact_duration(shaft_rad_s)
 
     def _instants(self, upto: float) -> np.ndarray:

@@ -5,8 +5,8 @@
   moves the tooth profile, whose projection on the line of action ``V . d`` enters the mesh deflection
   (shaft order 1 of that gear and sidebands of the mesh orders; Velex & Maatar 1996), and the mass
   centre, a rotating force ``m_g Omega_s^2 d`` at its node (Randall 2011, Sec 2.2.1; Mohammed et al.
-  2009). docs/calibration.md Sec. 8.33: with an unrelated error ``e sin(theta_s + phi)`` the two
-  parts were 160 deg out of their physical relative phase on the pinion.
+  2009). docs/history/calibration_sessions.md Sec. 8.33: with an unrelated error ``e sin(theta_s + phi)``
+  the two parts were 160 deg out of their physical relative phase on the pinion.
 * ``tooth_damage``: a root crack or chipped tooth lowers the mesh stiffness by the fraction
   ``depth`` of that tooth's share while it is engaged (Chaari et al. 2009; Mohammed et al. 2009):
   once-per-revolution modulation, sidebands around the mesh orders.
@@ -14,7 +14,7 @@
   grows by ``h``) plus sliding wear (Archard 1953; Flodin & Andersson 1997) ``h |s - s_P| / max reach``
   along the path of contact, zero at the pitch point, ``h`` at the far path end, load-share weighted
   over the pairs in contact: mesh harmonics, and in contact the mean transmission error grows by ``h``
-  plus the profile's mean (1.40 h on the paper pair; docs/calibration.md Sec. 8.8).
+  plus the profile's mean (1.40 h on the paper pair; docs/history/calibration_sessions.md Sec. 8.8).
 * ``gear_misalignment``: tooth lines of one wheel tilted (wobbling) about the middle of the face by
   an angle: axial mesh-force component at its order 1; once the tilt exceeds what the mesh
   deflection covers, an edge-loaded, softer mesh twice per revolution of that wheel.
@@ -242,9 +242,10 @@ def step_average_periodic(table: np.ndarray, phase: np.ndarray, width: np.ndarra
     where a pair enters or leaves contact) is then seen by the integrator as the mean over each step:
     the jump's place inside the step sets the value, where a sample at the step instant would move
     the jump to the step grid. That timing error repeats with the grid's beat against the tooth
-    count and puts numerical lines at the shaft orders between the mesh harmonics (docs/calibration.md
-    Sec. 8.18: 0.83 m/s^2 RMS over the pinion orders of ``node5_ay`` for 17.7 um of wear at 3000 rpm
-    and 69 steps per mesh period, falling as the step). ``width`` 0 gives the point value.
+    count and puts numerical lines at the shaft orders between the mesh harmonics
+    (docs/history/calibration_sessions.md Sec. 8.18: 0.83 m/s^2 RMS over the pinion orders of ``node5_ay`` for
+    17.7 um of wear at 3000 rpm and 69 steps per mesh period, falling as the step). ``width`` 0 gives
+    the point value.
     """
     p = np.asarray(table, dtype=float)
     n = p.size

@@ -3,8 +3,8 @@
 One mesh stiffness scale ``s_k`` sets both the static mesh compliance ``F / k`` (the DTE's mean and its
 quasi-static comb, which a damaged tooth's depth is read from) and the mesh mode ``sqrt(k / m_e)``. Two
 models of one machine whose equivalent inertias differ cannot agree on both with one scale
-(``docs/calibration.md`` Sec. 8.35 and 8.41). Scaling the gear discs' mass and inertia by ``s_m``
-moves the mode by ``1 / sqrt(s_m)`` and leaves every static quantity as it was.
+(``docs/history/calibration_sessions.md`` Sec. 8.35 and 8.41). Scaling the gear discs' mass and inertia by
+``s_m`` moves the mode by ``1 / sqrt(s_m)`` and leaves every static quantity as it was.
 
 The discs are the rigid gear discs of Sun et al. (2021) Sec 3.1 (Eqs 19-20, mass and polar/diametral
 inertia of the pitch-diameter annulus): the density of their material is scaled (a copy of the

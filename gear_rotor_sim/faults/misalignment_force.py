@@ -41,8 +41,8 @@ PASSBAND_FRACTION = 0.4
 #: at several angles and on several candidates against one mesh-force run (``calibration/
 #: model_misalignment.py``), and each pass solved the same least squares again: at 1500 rpm 18 solves
 #: of 39200 x 641 (pinion) or x 1081 (gear) systems, 173 of the 336 s (profiled) of the held-out healthy
-#: 1500 rpm record (docs/calibration.md Sec. 8.39). A hit returns a copy of the stored solution, so the
-#: result is the one computed first.
+#: 1500 rpm record (docs/history/calibration_sessions.md Sec. 8.39). A hit returns a copy of the stored
+#: solution, so the result is the one computed first.
 _ORDERS: OrderedDict[bytes, np.ndarray] = OrderedDict()
 _ORDERS_MAX = 16
 

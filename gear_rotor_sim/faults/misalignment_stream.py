@@ -1,11 +1,11 @@
 """The misaligned gear's axial force from the instantaneous mesh force in a stream (the Simulator).
 
 A tilted wheel's axial mesh force is ``F(t) gamma(t)`` with ``F`` the instantaneous normal tooth force
-(``faults/misalignment_force.py``, docs/calibration.md Sec. 8.19). An effect's force amplitudes are
-set from the kinematics before each chunk, so ``F`` enters as the order coefficients of the mesh force
-over one revolution of the tilted wheel (``GearMisalignment.mesh_force_orders``). The calibration gets
-them from a first run (``with_mesh_force``). A stream cannot run twice; the :class:`Simulator` keeps a
-running synchronous average of its own mesh force instead:
+(``faults/misalignment_force.py``, docs/history/calibration_sessions.md Sec. 8.19). An effect's force
+amplitudes are set from the kinematics before each chunk, so ``F`` enters as the order coefficients of
+the mesh force over one revolution of the tilted wheel (``GearMisalignment.mesh_force_orders``). The
+calibration gets them from a first run (``with_mesh_force``). A stream cannot run twice;
+the :class:`Simulator` keeps a running synchronous average of its own mesh force instead:
 
 * every integration step's mesh force is binned by the tilted wheel's angle (``STREAM_BINS`` bins
   over a revolution, each step shared linearly between its two neighbouring bin centres; compiled,
