@@ -1,0 +1,432 @@
+"""Calibration on records that hold an effect nobody declared (issue 11).
+
+A user's measurement holds things the sidecar does not say: an encoder zero, a sensor mounted the other
+way, x and y swapped, a wrong sensitivity, mains hum, a channel delayed in the acquisition, a clipped
+channel, a machine whose bearings are stiffer or softer than nominal, more noise, a short record. Each
+record here is a ``lumped_gearbox`` record of the issue-11 table (same generator, seed and sampling as
+``benchmarks/calibration_independent.py``, so the correctly declared result of the same record is that
+table's row) with ONE such effect added: in the measurement chain by post-processing the noisy record
+(the generator is never changed), or through the generator's own inputs (``bearing_stiffness`` fault,
+noise level, duration). It is then diagnosed by ``gear-rotor-sim calibrate RECORD --json``.
+
+What is asked (docs/history/calibration_sessions.md Sec. 8.43): the calibration either explains the
+effect (a baseline update, or a library effect with the right meaning) or says plainly that it cannot
+(an ``issues`` entry naming the channel), and never names a wrong fault with confidence. Verdict per record:
+healthy: nothing in ``effects``; fault: named first (right wheel / tooth), main parameter within
+25 %, error at least halved (``calibration_independent.judge``). Besides, ``issues_true``: does an
+``issues`` entry name the disturbed channel (effects on one channel), or is it ``-`` (effects of the
+whole record, which the verdict alone judges).
+
+Usage::
+
+    python benchmarks/calibration_undeclared.py [--jobs N] [--out DIR] [--cases SUBSTR ...]
+        [--baseline | --only-baseline]
+    python benchmarks/calibration_undeclared.py --from-results DIR [DIR ...]   # re-render saved results
+    python benchmarks/calibration_undeclared.py --list                          # the cases, no calibration
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import calibration_independent as ci
+
+from lumped_gearbox import CONTACT_RPM, make_record, write_record
+
+#: the records of the issue-11 table this benchmark disturbs: tag -> (fault or None, the table's seed)
+BASES: dict[str, tuple[str | None, int]] = {
+    "healthy": (None, 34),  # healthy_3000rpm_25C
+    "tooth_pinion": (ci.FAULTS[0], 11),  # contact_tooth_damage_pinion: pinion tooth 7, depth 0.4
+    "gear_ecc": (ci.FAULTS[3], 14),  # contact_gear_eccentricity: 20 um
+    "wear": (ci.FAULTS[6], 17),  # contact_tooth_wear: 20 um
+    "outer_race": (ci.FAULTS[8], 19),  # contact_outer_race_defect: 300 N
+}
+
+Post = Callable[[dict[str, np.ndarray], float], None]
+
+
+def offset(col: str, value: float | None = None, rms_fraction: float | None = None) -> Post:
+    """Add a constant to one column: ``value`` (SI) or ``rms_fraction`` x its RMS about the mean."""
+
+    def post(data: dict[str, np.ndarray], fs: float) -> None:
+        x = data[col]
+        data[col] = x + (value if value is not None else float(rms_fraction or 0.0) * float(np.std(x)))
+
+    return post
+
+
+def gain(col: str, factor: float) -> Post:
+    """Multiply one column (a wrong sensitivity; a sign flip is ``factor = -1``)."""
+
+    def post(data: dict[str, np.ndarray], fs: float) -> None:
+        data[col] = factor * data[col]
+
+    return post
+
+
+def swap(a: str, b: str) -> Post:
+    """Exchange two columns (x and y of a sensor swapped in the wiring or the sidecar)."""
+
+    def post(data: dict[str, np.ndarray], fs: float) -> None:
+        data[a], data[b] = data[b], data[a]
+
+    return post
+
+
+def mains(cols: tuple[str, ...], hz: float = 50.0, rms_fraction: float = 0.5) -> Post:
+    """Add a mains line ``sqrt(2) * rms_fraction * RMS`` at ``hz`` (phase 0.3 rad) to each column."""
+
+    def post(data: dict[str, np.ndarray], fs: float) -> None:
+        for c in cols:
+            x = data[c]
+            t = np.arange(x.size) / fs
+            amp = math.sqrt(2.0) * rms_fraction * float(np.std(x))
+            data[c] = x + amp * np.sin(2.0 * math.pi * hz * t + 0.3)
+
+    return post
+
+
+def delay(col: str, samples: int) -> Post:
+    """Delay one column by whole samples (the first sample repeated at the start)."""
+
+    def post(data: dict[str, np.ndarray], fs: float) -> None:
+        x = data[col]
+        data[col] = np.concatenate([np.full(samples, x[0]), x[:-samples]])
+
+    return post
+
+
+def clip(col: str, fraction: float = 0.8) -> Post:
+    """Clip one column at ``fraction`` of its largest deviation from the mean (both signs)."""
+
+    def post(data: dict[str, np.ndarray], fs: float) -> None:
+        x = data[col]
+        m = float(np.mean(x))
+        lim = fraction * float(np.max(np.abs(x - m)))
+        data[col] = np.clip(x, m - lim, m + lim)
+
+    return post
+
+
+@dataclass(frozen=True)
+class Undeclared:
+    """One undeclared effect and the table records it is added to."""
+
+    name: str
+    what: str
+    bases: tuple[str, ...]
+    channel: str | None = None  # the disturbed column (issues are checked for it)
+    post: Post | None = None
+    record_kw: dict[str, Any] = field(default_factory=dict)  # make_record keywords (noise, duration_s)
+    extra_fault: str | None = None  # a generator fault that is a baseline property, not a fault
+
+
+#: in the order of how likely a real user's data holds them
+EFFECTS: list[Undeclared] = [
+    Undeclared(
+        "declared",
+        "nothing undeclared (the table's record)",
+        ("healthy", "tooth_pinion", "gear_ecc", "wear", "outer_race"),
+    ),
+    Undeclared(
+        "dte_offset_+5um",
+        "DTE encoder zero +5 um",
+        ("healthy", "wear", "tooth_pinion"),
+        "dte",
+        offset("dte", 5e-6),
+    ),
+    Undeclared(
+        "dte_offset_-5um",
+        "DTE encoder zero -5 um",
+        ("healthy", "wear", "tooth_pinion"),
+        "dte",
+        offset("dte", -5e-6),
+    ),
+    Undeclared(
+        "flip_node5_ay",
+        "accelerometer node5_ay mounted the other way (sign flip)",
+        ("healthy", "gear_ecc", "tooth_pinion"),
+        "node5_ay",
+        gain("node5_ay", -1.0),
+    ),
+    Undeclared(
+        "flip_bearing2_fy",
+        "force sensor bearing2_fy sign flipped",
+        ("healthy", "gear_ecc"),
+        "bearing2_fy",
+        gain("bearing2_fy", -1.0),
+    ),
+    Undeclared(
+        "swap_node5_axy",
+        "accelerometer x and y swapped",
+        ("healthy", "gear_ecc"),
+        "node5_a",
+        swap("node5_ax", "node5_ay"),
+    ),
+    Undeclared(
+        "gain_x0.5_node5_ay",
+        "accelerometer node5_ay sensitivity x0.5",
+        ("healthy", "gear_ecc"),
+        "node5_ay",
+        gain("node5_ay", 0.5),
+    ),
+    Undeclared(
+        "gain_x2_bearing2_fx",
+        "force sensor bearing2_fx sensitivity x2",
+        ("healthy", "outer_race"),
+        "bearing2_fx",
+        gain("bearing2_fx", 2.0),
+    ),
+    Undeclared(
+        "dc_node5_ax",
+        "accelerometer node5_ax DC offset of 1 RMS",
+        ("healthy", "gear_ecc"),
+        "node5_ax",
+        offset("node5_ax", rms_fraction=1.0),
+    ),
+    Undeclared(
+        "mains_50hz",
+        "50 Hz mains line at 0.5 RMS on both accelerometers (= the pinion's shaft rate at 3000 rpm)",
+        ("healthy", "outer_race"),
+        "node5_a",
+        mains(("node5_ax", "node5_ay")),
+    ),
+    Undeclared(
+        "skew_node5_ay_3",
+        "node5_ay delayed by 3 samples",
+        ("healthy", "tooth_pinion"),
+        "node5_ay",
+        delay("node5_ay", 3),
+    ),
+    Undeclared(
+        "clip_bearing2_fy_0.8",
+        "bearing2_fy clipped at 80 % of its peak deviation",
+        ("healthy", "outer_race"),
+        "bearing2_fy",
+        clip("bearing2_fy", 0.8),
+    ),
+    Undeclared(
+        "bearing_stiffness_x0.7",
+        "bearings 0.7 x the nominal stiffness (judged as a baseline update)",
+        ("healthy", "gear_ecc"),
+        extra_fault="bearing_stiffness:scale=0.7",
+    ),
+    Undeclared(
+        "noise_10pct",
+        "noise 10 % of each channel's RMS (the table: 2-5 %)",
+        ("healthy", "tooth_pinion"),
+        record_kw={"noise": (0.10, 0.10)},
+    ),
+    Undeclared(
+        "short_0.5s",
+        "record 0.5 s instead of 2 s",
+        ("healthy", "tooth_pinion"),
+        record_kw={"duration_s": 0.5},
+    ),
+]
+
+
+@dataclass(frozen=True)
+class Case:
+    effect: Undeclared
+    base: str
+
+    @property
+    def tag(self) -> str:
+        return f"{self.effect.name}__{self.base}"
+
+    @property
+    def fault(self) -> str | None:
+        return BASES[self.base][0]
+
+    def judged(self) -> ci.Case:
+        """The table's case type, for ``ci.judge`` (a baseline property is not a fault to name)."""
+        return ci.Case(self.tag, CONTACT_RPM, 25.0, self.fault, BASES[self.base][1])
+
+
+def cases() -> list[Case]:
+    return [Case(e, b) for e in EFFECTS for b in e.bases]
+
+
+def make(case: Case, out: Path) -> Path:
+    """The table's record (same seed, daq sampling) with the undeclared effect added."""
+    faults = [f for f in (case.fault, case.effect.extra_fault) if f]
+    kw = {"duration_s": 2.0, **case.effect.record_kw}
+    rec = make_record(CONTACT_RPM, 25.0, faults, seed=BASES[case.base][1], sampling="daq", **kw)
+    if case.effect.post is not None:
+        fs = 1.0 / float(rec.time_s[1] - rec.time_s[0])
+        case.effect.post(rec.data, fs)
+    return write_record(out / f"{case.tag}.csv", rec)
+
+
+def _issues_true(case: Case, res: dict[str, Any]) -> str:
+    """``yes`` if an ``issues`` entry names the disturbed column, ``no`` if none does, ``-`` without one."""
+    col = case.effect.channel
+    if col is None or case.effect.name == "declared" or res.get("failed"):
+        return "-"
+    return "yes" if any(col in str(i) for i in res.get("issues") or []) else "no"
+
+
+def judge(case: Case, res: dict[str, Any]) -> dict[str, Any]:
+    row = ci.judge(case.judged(), res)
+    row.update(effect=case.effect.name, base=case.base, issues_true=_issues_true(case, res))
+    col = case.effect.channel
+    row["issues"] = [str(i) for i in res.get("issues") or [] if col is None or col in str(i)]
+    row["not_claimed"] = [e.get("label") or e.get("name") for e in res.get("not_claimed") or []]
+    return row
+
+
+def _job(args: tuple[Case, str, str | None]) -> dict[str, Any]:
+    case, out, baseline = args
+    csv = Path(out) / f"{case.tag}.csv"
+    if not csv.exists():
+        make(case, Path(out))
+    res = ci.calibrate(csv, Path(baseline) if baseline else None)
+    (Path(out) / f"{case.tag}{'.baseline' if baseline else ''}.calibration.json").write_text(
+        json.dumps(res, indent=1, default=str)
+    )
+    row = judge(case, res)
+    row["baseline"] = Path(baseline).name if baseline else None
+    return row
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    head = (
+        "| effect | record | first effect (baseline updates) | main parameter: fitted / truth (error) | "
+        "E before -> after | verdict | issue names the channel | issues on that channel |\n"
+        "|---|---|---|---|---|---|---|---|\n"
+    )
+    lines = []
+    for r in rows:
+        if "param" in r:
+            par = f"{r['param']}: {ci._fmt(r['fitted'])} / {ci._fmt(r['truth_value'])}"
+            par += f" ({ci._fmt(r['rel_error'], '+.0%')})"
+            if r.get("tooth"):
+                par += f", tooth {ci._fmt(r['tooth'][0], '')} / {r['tooth'][1]}"
+        else:
+            par = "-"
+        first = r.get("first", "-")
+        if r.get("baseline_updates"):
+            first += f" ({', '.join(r['baseline_updates'])})"
+        issues = "; ".join(i[:140] for i in r.get("issues") or []) if r.get("issues_true") != "-" else ""
+        err = f"{ci._fmt(r.get('error_before'))} -> {ci._fmt(r.get('error_after'))}"
+        lines.append(
+            f"| {r['effect']} | {r['base']} | {first} | {par} | {err} | {r['verdict']} | "
+            f"{r.get('issues_true', '-')} | {issues.replace('|', '/')} |"
+        )
+    return head + "\n".join(lines) + "\n"
+
+
+def render(rows: list[dict[str, Any]], note: str) -> str:
+    text = ""
+    for variant, title in ((None, "Without a reference"), ("yes", "With `--baseline` (healthy 2000 rpm)")):
+        part = [r for r in rows if bool(r.get("baseline")) == bool(variant)]
+        if not part:
+            continue
+        done = [r for r in part if r["verdict"] != "not run"]
+        n_pass = sum(r["verdict"] == "PASS" for r in done)
+        cpus = sorted(r["cpu_s"] for r in done if r.get("cpu_s") is not None)
+        text += f"#### {title}: {n_pass} of {len(done)} pass\n\n" + table(part)
+        if cpus:
+            text += f"\nCPU per record: median {cpus[len(cpus) // 2]:.0f} s, max {cpus[-1]:.0f} s.\n\n"
+    return text + f"{note}.\n"
+
+
+def collect(todo: list[Case], dirs: list[Path], baseline: bool) -> list[dict[str, Any]]:
+    rows = []
+    for c in todo:
+        name = f"{c.tag}{'.baseline' if baseline else ''}.calibration.json"
+        found = [d / name for d in dirs if (d / name).exists()]
+        if found:
+            row = judge(c, json.loads(found[0].read_text()))
+            row["baseline"] = "yes" if baseline else None
+            rows.append(row)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--jobs", type=int, default=1, help="parallel calibrations (default 1)")
+    ap.add_argument("--out", default="out/calibration_undeclared", help="records and results directory")
+    ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
+    ap.add_argument("--baseline", action="store_true", help="also the --baseline variant (healthy 2000 rpm)")
+    ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
+    ap.add_argument(
+        "--reference",
+        metavar="JSON",
+        help="saved reference baseline to use (default: fitted here on the table's healthy 2000 rpm record)",
+    )
+    ap.add_argument("--from-results", nargs="+", metavar="DIR", help="judge saved *.calibration.json")
+    ap.add_argument("--list", action="store_true", help="print the cases and exit")
+    args = ap.parse_args(argv)
+    todo = cases()
+    if args.cases:
+        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    if args.list:
+        for c in todo:
+            print(f"{c.tag}: {c.effect.what}; truth {c.fault or 'healthy'}")
+        return 0
+    if not todo:
+        print("no case matches --cases", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if args.from_results:
+        dirs = [Path(d) for d in args.from_results]
+        rows = collect(todo, dirs, False) + collect(todo, dirs, True)
+        text = render(rows, f"results from {', '.join(map(str, dirs))}")
+    else:
+        t0, load0 = time.perf_counter(), os.getloadavg()[0]
+        for c in todo:
+            make(c, out)
+        jobs: list[tuple[Case, str, str | None]] = (
+            [] if args.only_baseline else [(c, str(out), None) for c in todo]
+        )
+        if args.baseline or args.only_baseline:
+            saved = args.reference
+            if saved is None:
+                ref = ci.Case("baseline_2000rpm_25C", *ci.BASELINE, None, 999)
+                saved = ci._reference((ref, str(out), 2.0))
+            jobs += [(c, str(out), saved) for c in todo]
+        rows = _run(jobs, args.jobs)
+        load1 = os.getloadavg()[0]
+        text = render(
+            rows,
+            f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
+            f"{load1:.1f} at the end; total {time.perf_counter() - t0:.0f} s",
+        )
+    print(text)
+    for name, content in (("table.md", text), ("results.json", json.dumps(rows, indent=1, default=str))):
+        (out / name).write_text(content)
+    return 0
+
+
+def _run(jobs: list[tuple[Case, str, str | None]], n_jobs: int) -> list[dict[str, Any]]:
+    """The calibrations, in a pool or one by one (each row's verdict printed as it comes: the saved
+    results let a cut-short run be re-rendered with ``--from-results``)."""
+    if n_jobs > 1:
+        with ProcessPoolExecutor(max_workers=n_jobs) as pool:
+            return list(pool.map(_job, jobs))
+    rows = []
+    for j in jobs:
+        rows.append(_job(j))
+        print(f"{rows[-1]['record']}: {rows[-1]['verdict']}", file=sys.stderr, flush=True)
+    return rows
+
+
+if __name__ == "__main__":
+    sys.exit(main())
