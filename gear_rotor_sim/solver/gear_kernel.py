@@ -12,10 +12,12 @@ With ``locate`` a step that contains a table jump of any mesh (tooth-pair change
 contact change of any mesh is integrated as Newmark sub-steps split at the event
 (:func:`_event_step`; docs/solver.md, "Events inside a step").
 
-Hot path: the regular step is written out in the loop, with calls only on rare paths (a table
-interval holding a jump, an event step, an active set that does not settle) or with scalar
-arguments: every array handed to a function inside the loop, inlined or not, costs a reference
-count increment and decrement per step (docs/solver.md, "One gear kernel").
+Hot path: the step loop (:func:`.gear_loop._run_loop`) is compiled without the numba runtime, so its
+parts (the regular step's in :mod:`.gear_step`, the outputs, the event step) are ``inline="always"``
+functions taking the role tuples below, with calls only on rare paths (a table interval holding a
+jump, an active set that does not settle, the output block product): with the runtime, every array
+handed to a function inside the loop, inlined or not, cost a reference count increment and decrement
+per step (docs/solver.md, "One gear kernel", "Session 8").
 
 The arrays are passed grouped by role, as tuples:
 
@@ -50,8 +52,11 @@ Module layout (docs/solver.md, "Module layout"): this module holds the chunk dri
 parts are in modules of one role each: :mod:`.gear_tables` (table look-up, the TE's sin/cos),
 :mod:`.gear_mesh_solve` (the mesh law: exact mesh solve, delta and delta' affine in the forces, the
 mesh columns), :mod:`.gear_events` (contact-change location, the event step as sub-steps),
-:mod:`.gear_jumps` (``average_jumps``), :mod:`.gear_output` (the output block product) and
-:mod:`.gear_loop` (the step loop, :func:`_run_loop`). numba's cache of a function is checked against
+:mod:`.gear_jumps` (``average_jumps``), :mod:`.gear_step` (the regular step's parts: table jumps
+in the step, excitation, affine form and mesh solve, commit of the meshes), :mod:`.gear_output` (a
+step's outputs, the output block product) and :mod:`.gear_loop` (the step loop, :func:`_run_loop`).
+Each inlined part was checked bit for bit against the written-out loop it replaces (docs/solver.md,
+"Module layout"). numba's cache of a function is checked against
 its own source file only, and a caller's cached machine code holds its callees': after editing one
 of these modules, delete the solver's numba cache (``gear_rotor_sim/solver/__pycache__/*.nb[ic]``,
 or the ``NUMBA_CACHE_DIR`` mirror) so that the callers in the other modules are compiled again.

@@ -9,19 +9,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from gear_rotor_sim.solver.gear_events import _EVENT_SNAP, _MAX_PIECES, _event_step, _locate_crossing
+from gear_rotor_sim.solver.gear_events import _event_step
 from gear_rotor_sim.solver.gear_jumps import _jump_average_end, _jump_average_start
-from gear_rotor_sim.solver.gear_mesh_solve import (
-    _affine_forces,
-    _mesh_solve_one,
-    _mesh_solve_two,
-    _set_columns,
-    _solve_meshes,
-    _state_force,
+from gear_rotor_sim.solver.gear_output import _copy_int, _emit_outputs
+from gear_rotor_sim.solver.gear_step import (
+    _commit_meshes,
+    _end_excitation,
+    _full_step_crossing,
+    _full_step_solve,
+    _step_jumps,
 )
-from gear_rotor_sim.solver.gear_output import _copy_int, _emit_block
-from gear_rotor_sim.solver.gear_tables import _tables_at
-from gear_rotor_sim.solver.kernels import _FM, STATUS_BOUND, STATUS_NONFINITE, STATUS_OK
+from gear_rotor_sim.solver.kernels import _FM, STATUS_NONFINITE, STATUS_OK
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy", nogil=True, _nrt=False)
@@ -55,42 +53,35 @@ def _run_loop(
     phases, ``event_average``'s sums, the sub-steps' work, ``average_jumps``' arrays
     (:func:`_jump_average_start`); ``upd`` = (zero, gr, gi, qa, flat, te_sc, qb_full, resp_full): the
     regular step's fused update (column slots, flat rows), the TE's sin/cos (:func:`_te_sin_cos`) and
-    the full step's affine form (several meshes). This function allocates nothing (the output block
-    product is the call :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking,
+    the full step's affine form (several meshes). The numbered parts of :func:`run_chunk_gear`'s
+    docstring are ``inline="always"`` functions of :mod:`.gear_step` (1.-5.) and :mod:`.gear_output`
+    (6.) taking these tuples; the loop keeps the control flow between them, ``average_jumps``' choice
+    and the fused modal update. This function allocates nothing (the output block product is the call
+    :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking,
     views, the inlined :func:`_event_step`'s ~80 arrays) costs no atomic reference-count increment and
     decrement: with it, the event steps spent about half their time in them at 20000 rpm
     (docs/solver.md, "Session 8").
     """
-    zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2, _vrr, _vri, _mur, _mui, _pmr, _pmi = modal
-    pq, pqn, pq_static, _rstat, pd, pv, mesh_par = mesh
-    phase, phase_rate, kfac, te_add, ted_add, ampl = exc
-    tab_kf, tab_cf, jflag, _tab_k, _tab_c, jump_p, _jump_k, _jump_c, n_jump = tables
+    zr, zi, rr, ri, c0r, c0i, swr2, swi2, crr2, cri2 = modal[:10]
+    mesh_par = mesh[6]
+    phase, ampl = exc[0], exc[5]
     beta_prev, ypred, state, mcarry = carry
-    cstack, dfeed_static, hbuf, out, dte, dted, fmesh, states, kt_out, et_out, edt_out, coef_out = outs[:12]
-    dte_ch, fm_ch = outs[12], outs[13]  # the mesh channels (event_average; else not written)
-    prev, cur, mats, solve = meshw
+    prev, cur, _mats, _solve = meshw
     ev, avg, work, ja = evw
-    kk, ee, ed, coef, _beta_prev, beta_new, alpha, force = cur
-    a1, b1, am, bm = mats[0], mats[1], mats[2], mats[3]
-    new_state, cm, bst, swork, srhs, trial = solve
-    zero, gr, gi, qa, flat, te_sc, qb_full, resp_full = upd
+    beta_new, alpha = cur[5], cur[6]
+    zero, gr, gi, qa, flat, te_sc = upd[:6]
     swr, swi, crr, cri = flat
-    bnd, bfe, bmesh, endfe, dph, pha = ev[0], ev[1], ev[2], ev[6], ev[7], ev[8]
-    azr, azi, abeta, adf, avg_mode, zsr, zsi, bs, dfs = avg  # event_average
-    d_p, dd_p, e_p, ed_p, f_p, s_p = prev
+    bnd, bfe, bmesh, pha = ev[0], ev[1], ev[2], ev[8]
+    avg_mode, zsr, zsi, bs, dfs = avg[4:]  # event_average
+    d_p, dd_p, f_p, s_p = prev[0], prev[1], prev[4], prev[5]
     jc, jk, jm = ja
     nsteps = phase.shape[0] - 1
     nm = phase.shape[1]
-    nt = tab_kf.shape[1]
-    nb = tab_cf.shape[2]
+    nb = tables[1].shape[2]
     na = beta_prev.shape[0]
     ne = ampl.shape[1]
-    no = cstack.shape[1]
     nmode = zr.shape[0]
     e0 = nm * nb
-    has_kfac = kfac.shape[0] > 0
-    has_te = te_add.shape[0] > 0
-    two_pi = 2.0 * np.pi
     zfr = zr[:nf]
     zfi = zi[:nf]
     rfr = rr[:nf]
@@ -125,7 +116,6 @@ def _run_loop(
 
     n_fail = 0
     n_sub = 0
-    n_buf = hbuf.shape[0]
     hb = 0
     o0 = 0
     amode = avg_mode[0]
@@ -136,44 +126,7 @@ def _run_loop(
         nev = 0
         has_end = False
         if locate:
-            for i in range(nm):
-                endfe[i] = -1.0
-                ph_a = phase[n - 1, i]
-                dp = phase[n, i] - ph_a
-                if dp < 0.0:
-                    dp += 1.0
-                pha[i] = ph_a
-                dph[i] = dp
-                for q in range(n_jump[i]):
-                    x = jump_p[i, q] - ph_a
-                    if x <= 0.0:
-                        x += 1.0
-                    if x < dp and nev < _MAX_PIECES - 2 - nm:
-                        th = x / dp
-                        if th <= _EVENT_SNAP:
-                            # the jump is at the step start (to round-off): start from its right limit
-                            k0 = _tables_at(i, jump_p[i, q], False, tables, coef)
-                            if has_kfac:
-                                k0 *= kfac[n - 1, i]
-                            f_p[i] = _state_force(
-                                s_p[i], d_p[i] - e_p[i], dd_p[i] - ed_p[i], k0, cm[i], bst[i], f_p[i]
-                            )
-                            _set_columns(i, beta_prev, coef, f_p[i], d_p[i], dd_p[i], mesh_par)
-                            continue
-                        if th >= 1.0 - _EVENT_SNAP:
-                            endfe[i] = jump_p[i, q]  # at the step end: left limit there, then the right limit
-                            has_end = True
-                            continue
-                        pos = nev + 1  # insertion sort into bnd[1..nev]
-                        while pos > 1 and bnd[pos - 1] > th:
-                            bnd[pos] = bnd[pos - 1]
-                            bfe[pos] = bfe[pos - 1]
-                            bmesh[pos] = bmesh[pos - 1]
-                            pos -= 1
-                        bnd[pos] = th
-                        bfe[pos] = jump_p[i, q]
-                        bmesh[pos] = i
-                        nev += 1
+            nev, has_end = _step_jumps(n, exc, tables, mesh_par, carry, meshw, ev)
         regular = nev == 0 and not has_end
         javg = False
         if avg_jumps and nev > 0 and not has_end:
@@ -194,34 +147,7 @@ def _run_loop(
         mesh0 = -1
         if regular:
             # 2. excitation at the step end
-            finite = True
-            for i in range(nm):
-                f = phase[n, i]
-                x = f * nt
-                i0 = int(np.floor(x))
-                fr = x - i0
-                i0 = i0 % nt
-                i1 = i0 + 1
-                if i1 == nt:
-                    i1 = 0
-                if jflag[i, i0] == 0:
-                    k = tab_kf[i, i0] + fr * (tab_kf[i, i1] - tab_kf[i, i0])
-                    for j in range(nb):
-                        coef[i, j] = tab_cf[i, i0, j] + fr * (tab_cf[i, i1, j] - tab_cf[i, i0, j])
-                else:
-                    k = _tables_at(i, f, False, tables, coef)
-                if has_kfac:
-                    k *= kfac[n, i]
-                e = mesh_par[i, 4] * te_sc[n, i]  # sin, cos of Eq 24's argument (_te_sin_cos)
-                edot = mesh_par[i, 4] * te_sc[n, nm + i] * two_pi * phase_rate[n, i]
-                if has_te:
-                    e += te_add[n, i]
-                    edot += ted_add[n, i]
-                kk[i] = k
-                ee[i] = e
-                ed[i] = edot
-                if not (np.isfinite(k) and np.isfinite(e) and np.isfinite(edot)):
-                    finite = False
+            finite = _end_excitation(n, exc, tables, mesh_par, te_sc, cur)
             if not finite:
                 _copy_int(s_p, state)
                 return STATUS_NONFINITE, o, n_fail, n_sub
@@ -230,78 +156,11 @@ def _run_loop(
             for q in range(ne):
                 beta_new[e0 + q] = ampl[n, q]
             # 3. delta, delta' affine in the mesh forces; 4. the mesh solve
-            fail = 0
-            if nm == 1:  # scalars (the paper gearbox)
-                sd = ypred[0] + pq_static[0]
-                sv = ypred[1] + pq_static[1]
-                for q in range(na):
-                    sd += pq[0, q] * beta_prev[q]
-                    sv += pq[1, q] * beta_prev[q]
-                for q in range(e0, na):
-                    sd += pqn[0, q] * beta_new[q]
-                    sv += pqn[1, q] * beta_new[q]
-                td = -coef[0, 0] * pqn[0, 0]
-                tv = -coef[0, 0] * pqn[1, 0]
-                for j in range(1, nb):
-                    td += pqn[0, j] * coef[0, j]
-                    tv += pqn[1, j] * coef[0, j]
-                kb = mesh_par[0, 0]
-                cb = mesh_par[0, 1]
-                wc = kb * sd + cb * sv
-                wg = kb * td + cb * tv
-                a10 = sd + pd[0, 0] * wc
-                b10 = sv + pv[0, 0] * wc
-                am0 = td + pd[0, 0] * wg
-                bm0 = tv + pv[0, 0] * wg
-                a1[0] = a10
-                b1[0] = b10
-                am[0, 0] = am0
-                bm[0, 0] = bm0
-                ns1, f1 = _mesh_solve_one(s_p[0], a10 - ee[0], b10 - ed[0], am0, bm0, kk[0], cm[0], bst[0])
-                if ns1 == -9:  # rare: the general solver with its exhaustive search
-                    fail = _solve_meshes(
-                        s_p, -1, a1, b1, am, bm, kk, ee, ed, cm, bst, force, new_state, swork, srhs, trial
-                    )
-                else:
-                    new_state[0] = ns1
-                    force[0] = f1
-            else:
-                for r in range(2 * nm):
-                    qb_full[r] = ypred[r] + pq_static[r]
-                _affine_forces(qb_full, resp_full, beta_prev, beta_new, e0, coef, mesh_par, mats)
-                ns0 = ns1 = -9
-                if nm == 2:  # scalars (two-stage trains)
-                    ns0, ns1, f0, f1 = _mesh_solve_two(
-                        s_p[0], s_p[1], a1[0], a1[1], b1[0], b1[1], am[0, 0], am[0, 1], am[1, 0], am[1, 1],
-                        bm[0, 0], bm[0, 1], bm[1, 0], bm[1, 1], kk[0], kk[1], ee[0], ee[1], ed[0], ed[1],
-                        cm[0], cm[1], bst[0], bst[1],
-                    )  # fmt: skip
-                if ns0 != -9:
-                    new_state[0] = ns0
-                    new_state[1] = ns1
-                    force[0] = f0
-                    force[1] = f1
-                else:
-                    fail = _solve_meshes(
-                        s_p, -1, a1, b1, am, bm, kk, ee, ed, cm, bst, force, new_state, swork, srhs, trial
-                    )
+            fail = _full_step_solve(mesh, carry, meshw, upd)
             if locate:
                 # a contact change inside the step: locate it from this full-step solution, then redo
                 # the step as two sub-steps split there (none if no crossing is found)
-                for i in range(nm):
-                    if new_state[i] != s_p[i]:
-                        d = a1[i]
-                        dd = b1[i]
-                        for j in range(nm):
-                            d += am[i, j] * force[j]
-                            dd += bm[i, j] * force[j]
-                        t = _locate_crossing(
-                            d_p[i] - e_p[i], dd_p[i] - ed_p[i], d - ee[i], dd - ed[i], bst[i], dt
-                        )
-                        if t > 0.0 and (tc0 < 0.0 or t < tc0):
-                            tc0 = t
-                            dest0 = new_state[i]
-                            mesh0 = i
+                tc0, dest0, mesh0 = _full_step_crossing(meshw, dt)
                 if tc0 > 0.0:
                     regular = False
                     for i in range(nm):
@@ -317,32 +176,10 @@ def _run_loop(
                 n_fail += fail
         if regular:
             # 5. new amplitudes, results, modal update
-            for i in range(nm):
-                d = a1[i]
-                dd = b1[i]
-                for j in range(nm):
-                    d += am[i, j] * force[j]
-                    dd += bm[i, j] * force[j]
-                fi = force[i]
-                if not (np.isfinite(d) and np.isfinite(fi)):
-                    _copy_int(s_p, state)
-                    return STATUS_NONFINITE, o, n_fail, n_sub
-                if abs(d) >= bound:
-                    _copy_int(s_p, state)
-                    return STATUS_BOUND, o, n_fail, n_sub
-                c = i * nb
-                beta_new[c] = mesh_par[i, 0] * d + mesh_par[i, 1] * dd - coef[i, 0] * fi
-                for j in range(1, nb):
-                    beta_new[c + j] = coef[i, j] * fi
-                s_p[i] = new_state[i]
-                d_p[i] = d
-                dd_p[i] = dd
-                e_p[i] = ee[i]
-                ed_p[i] = ed[i]
-                f_p[i] = fi
-            for q in range(na):
-                alpha[q] = beta_prev[q] + beta_new[q]
-                beta_prev[q] = beta_new[q]
+            status = _commit_meshes(mesh_par, carry, meshw, bound)
+            if status != STATUS_OK:
+                _copy_int(s_p, state)
+                return status, o, n_fail, n_sub
             if fused:
                 has_g = False
                 for q in range(e0, na):
@@ -504,41 +341,7 @@ def _run_loop(
             _copy_int(s_p, state)
             return STATUS_NONFINITE, o, n_fail, n_sub
         # 6. outputs
-        for i in range(nm):
-            dte[o, i] = d_p[i]
-            dted[o, i] = dd_p[i]
-            fmesh[o, i] = f_p[i]
-            states[o, i] = s_p[i]
-            kt_out[o, i] = kk[i]
-            et_out[o, i] = ee[i]
-            edt_out[o, i] = ed[i]
-            for j in range(nb):
-                coef_out[o, i, j] = coef[i, j]
-            if amode > 0:  # x_n + A_n - (x_{n-1} + x_n) / 2 on an event step
-                if ev_step:
-                    dte_ch[o, i] = adf[0, i] + 0.5 * (d_p[i] - dfs[0, i])
-                    fm_ch[o, i] = adf[1, i] + 0.5 * (f_p[i] - dfs[1, i])
-                else:
-                    dte_ch[o, i] = d_p[i]
-                    fm_ch[o, i] = f_p[i]
-        if no > 0:
-            if amode == 2 and ev_step:
-                for j in range(nmode):
-                    hbuf[hb, j] = azr[j] + 0.5 * (zr[j] - zsr[j])
-                    hbuf[hb, nmode + j] = azi[j] + 0.5 * (zi[j] - zsi[j])
-                for q in range(na):
-                    hbuf[hb, 2 * nmode + q] = abeta[q] + 0.5 * (beta_prev[q] - bs[q])
-            else:
-                for j in range(nmode):
-                    hbuf[hb, j] = zr[j]
-                    hbuf[hb, nmode + j] = zi[j]
-                for q in range(na):
-                    hbuf[hb, 2 * nmode + q] = beta_prev[q]
-            hb += 1
-            if hb == n_buf or n == nsteps:
-                _emit_block(hbuf, hb, cstack, dfeed_static, out, o0)
-                o0 += hb
-                hb = 0
+        hb, o0 = _emit_outputs(n, nsteps, hb, o0, ev_step, modal, carry, outs, meshw, avg)
     _copy_int(s_p, state)
     for i in range(nm):
         mcarry[0, i] = d_p[i]
