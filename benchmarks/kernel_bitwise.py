@@ -13,7 +13,8 @@ the change), ``--compare FILE`` runs them again on the installed code and compar
 * the two-stage example (two meshes, issue 15) at 3000 and 12000 rpm, an effect on mesh 2;
 * effects: tooth damage, gear eccentricity, an outer-race bearing defect, a tilted gear
   misalignment (the streamed mesh-force orders);
-* output decimation: 5 kHz and 50 kHz output against the default 20 kHz, another channel set.
+* output decimation: 5 kHz and 50 kHz output against the default 20 kHz, another channel set;
+* the modal update mode by mode instead of the fused pass (``_plain``).
 
 Per case: the stream (channels, speed and temperature columns), the chunk statistics of the last
 ``advance``, the stepper's sub-step and failed-solve counts and the carried ``SolverState``.
@@ -69,6 +70,18 @@ def _two_stage(rpm: float, **kw: Any) -> Callable[[], Simulator]:
     return lambda: Simulator(load_config("two_stage_example"), rpm, 25.0, 20000.0, effects=eff, **kw)
 
 
+def _plain(factory: Callable[[], Simulator]) -> Callable[[], Simulator]:
+    """The same Simulator with the gear kernel's modal update mode by mode (``fuse_meshes=False``, the
+    path of more than two meshes or four columns a mesh), on its stepper at constant set-points."""
+
+    def make() -> Simulator:
+        sim = factory()
+        sim._stepper.fuse_meshes = False
+        return sim
+
+    return make
+
+
 #: name -> (Simulator factory, set-points applied after the first chunk or None)
 CASES: dict[str, tuple[Callable[[], Simulator], tuple[float | None, float | None] | None]] = {
     "paper_3000": (_paper(3000.0), None),
@@ -96,6 +109,8 @@ CASES: dict[str, tuple[Callable[[], Simulator], tuple[float | None, float | None
     "two_stage_3000": (_two_stage(3000.0), None),
     "two_stage_3000_ea0_located": (_two_stage(3000.0, event_average=False, locate_events=True), None),
     "two_stage_12000": (_two_stage(12000.0), None),
+    "paper_20000_plain_update": (_plain(_paper(20000.0, (_TOOTH,))), None),
+    "two_stage_3000_plain_update": (_plain(_two_stage(3000.0, locate_events=True)), None),
 }
 
 

@@ -18,6 +18,8 @@ from gear_rotor_sim.solver.gear_step import (
     _full_step_crossing,
     _full_step_solve,
     _step_jumps,
+    _update_fused,
+    _update_plain,
 )
 from gear_rotor_sim.solver.kernels import _FM, STATUS_NONFINITE, STATUS_OK
 
@@ -54,10 +56,10 @@ def _run_loop(
     (:func:`_jump_average_start`); ``upd`` = (zero, gr, gi, qa, flat, te_sc, qb_full, resp_full): the
     regular step's fused update (column slots, flat rows), the TE's sin/cos (:func:`_te_sin_cos`) and
     the full step's affine form (several meshes). The numbered parts of :func:`run_chunk_gear`'s
-    docstring are ``inline="always"`` functions of :mod:`.gear_step` (1.-5.) and :mod:`.gear_output`
-    (6.) taking these tuples; the loop keeps the control flow between them, ``average_jumps``' choice
-    and the fused modal update. This function allocates nothing (the output block product is the call
-    :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking,
+    docstring are ``inline="always"`` functions of :mod:`.gear_step` (1.-5. and the modal update)
+    and :mod:`.gear_output` (6.) taking these tuples; the loop keeps the control flow between them
+    and ``average_jumps``' choice. This function allocates nothing (the output block product is the
+    call :func:`_emit_block`). Without the runtime, binding an array (tuple unpacking,
     views, the inlined :func:`_event_step`'s ~80 arrays) costs no atomic reference-count increment and
     decrement: with it, the event steps spent about half their time in them at 20000 rpm
     (docs/solver.md, "Session 8").
@@ -113,6 +115,14 @@ def _run_loop(
     p2i = cri2[1, :nf] if nm > 1 else zero[:nf]
     p3r = crr2[nm + 1, :nf] if nm > 1 else zero[:nf]
     p3i = cri2[nm + 1, :nf] if nm > 1 else zero[:nf]
+    fz = (
+        (zr, zi, rr, ri, c0r, c0i),
+        (zfr, zfi, rfr, rfi, c0fr, c0fi),
+        (s0r, s0i, s1r, s1i, s2r, s2i, s3r, s3i, s4r, s4i, s5r, s5i, s6r, s6i, s7r, s7i),
+        (p0r, p0i, p1r, p1i, p2r, p2i, p3r, p3i),
+        (gr, gi),
+        (swr, swi),
+    )
 
     n_fail = 0
     n_sub = 0
@@ -181,132 +191,9 @@ def _run_loop(
                 _copy_int(s_p, state)
                 return status, o, n_fail, n_sub
             if fused:
-                has_g = False
-                for q in range(e0, na):
-                    aq = alpha[q]
-                    if aq != 0.0:
-                        q0 = q * nmode
-                        if not has_g:
-                            for j in range(nf):
-                                gr[j] = swr[q0 + j] * aq
-                                gi[j] = swi[q0 + j] * aq
-                            has_g = True
-                        else:
-                            for j in range(nf):
-                                gr[j] += swr[q0 + j] * aq
-                                gi[j] += swi[q0 + j] * aq
-                b0 = alpha[0]
-                b1_ = alpha[qa[1]] if qa[1] >= 0 else 0.0
-                b2_ = alpha[qa[2]] if qa[2] >= 0 else 0.0
-                b3_ = alpha[qa[3]] if qa[3] >= 0 else 0.0
-                b4_ = b5_ = b6_ = b7_ = 0.0
-                if nm > 1:
-                    b4_ = alpha[qa[4]]
-                    b5_ = alpha[qa[5]] if qa[5] >= 0 else 0.0
-                    b6_ = alpha[qa[6]] if qa[6] >= 0 else 0.0
-                    b7_ = alpha[qa[7]] if qa[7] >= 0 else 0.0
-                y0 = 0.0
-                y1 = 0.0
-                y2 = 0.0
-                y3 = 0.0
-                if nm == 1 and not has_g:
-                    for j in range(nf):
-                        xr = zfr[j]
-                        xi = zfi[j]
-                        tr = (
-                            rfr[j] * xr
-                            - rfi[j] * xi
-                            + c0fr[j]
-                            + s0r[j] * b0
-                            + s1r[j] * b1_
-                            + s2r[j] * b2_
-                            + s3r[j] * b3_
-                        )
-                        ti = (
-                            rfr[j] * xi
-                            + rfi[j] * xr
-                            + c0fi[j]
-                            + s0i[j] * b0
-                            + s1i[j] * b1_
-                            + s2i[j] * b2_
-                            + s3i[j] * b3_
-                        )
-                        zfr[j] = tr
-                        zfi[j] = ti
-                        y0 += p0r[j] * tr - p0i[j] * ti
-                        y1 += p1r[j] * tr - p1i[j] * ti
-                elif nm == 1:
-                    for j in range(nf):
-                        xr = zfr[j]
-                        xi = zfi[j]
-                        tr = (
-                            rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
-                            + s3r[j] * b3_ + gr[j]
-                        )  # fmt: skip
-                        ti = (
-                            rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
-                            + s3i[j] * b3_ + gi[j]
-                        )  # fmt: skip
-                        zfr[j] = tr
-                        zfi[j] = ti
-                        y0 += p0r[j] * tr - p0i[j] * ti
-                        y1 += p1r[j] * tr - p1i[j] * ti
-                else:
-                    if not has_g:
-                        for j in range(nf):
-                            gr[j] = 0.0
-                            gi[j] = 0.0
-                    for j in range(nf):
-                        xr = zfr[j]
-                        xi = zfi[j]
-                        tr = (
-                            rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
-                            + s3r[j] * b3_ + s4r[j] * b4_ + s5r[j] * b5_ + s6r[j] * b6_ + s7r[j] * b7_ + gr[j]
-                        )  # fmt: skip
-                        ti = (
-                            rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
-                            + s3i[j] * b3_ + s4i[j] * b4_ + s5i[j] * b5_ + s6i[j] * b6_ + s7i[j] * b7_ + gi[j]
-                        )  # fmt: skip
-                        zfr[j] = tr
-                        zfi[j] = ti
-                        y0 += p0r[j] * tr - p0i[j] * ti
-                        y1 += p1r[j] * tr - p1i[j] * ti
-                        y2 += p2r[j] * tr - p2i[j] * ti
-                        y3 += p3r[j] * tr - p3i[j] * ti
-                for j in range(nf, nmode):  # unforced modes only propagate
-                    xr = zr[j]
-                    xi = zi[j]
-                    zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
-                    zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
-                ypred[0] = y0
-                ypred[nm] = y1
-                if nm > 1:
-                    ypred[1] = y2
-                    ypred[nm + 1] = y3
+                _update_fused(nf, e0, alpha, qa, ypred, fz)
             else:
-                for j in range(nf):
-                    xr = zr[j]
-                    xi = zi[j]
-                    zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
-                    zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
-                for q in range(na):
-                    aq = alpha[q]
-                    if aq != 0.0:
-                        q0 = q * nmode
-                        for j in range(nf):
-                            zr[j] += swr[q0 + j] * aq
-                            zi[j] += swi[q0 + j] * aq
-                for j in range(nf, nmode):
-                    xr = zr[j]
-                    xi = zi[j]
-                    zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
-                    zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
-                for r in range(2 * nm):
-                    q0 = r * nmode
-                    sm = 0.0
-                    for j in range(nf):
-                        sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
-                    ypred[r] = sm
+                _update_plain(nf, alpha, ypred, fz, flat)
             if javg:  # the end force with the end's own tables, carried into the next step
                 _jump_average_end(mesh_par, prev, cur, ja)
         else:

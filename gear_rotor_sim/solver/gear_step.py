@@ -283,3 +283,149 @@ def _commit_meshes(mesh_par: np.ndarray, carry: tuple, meshw: tuple, bound: floa
         alpha[q] = beta_prev[q] + beta_new[q]
         beta_prev[q] = beta_new[q]
     return STATUS_OK
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
+def _update_fused(nf: int, e0: int, alpha: np.ndarray, qa: np.ndarray, ypred: np.ndarray, fz: tuple) -> None:
+    """The regular step's modal update ``z <- r z + c0 + sum_q SW_q alpha_q`` and the next step's
+    mesh predictions ``Re((V Phi) r z)`` in one pass over the forced modes (the rest only propagate),
+    the mesh columns unrolled (4 slots a mesh, 2 meshes at most: ``qa`` the column of each slot or
+    -1), the effect columns summed first into ``gr``, ``gi``. ``fz`` = (modes, forced, slots, rows,
+    g, flat): the modal state and map (zr, zi, rr, ri, c0r, c0i), their forced-mode views, the slots'
+    response rows (s0r, s0i, ..., s7r, s7i), the prediction rows (delta_1, delta_1', delta_2,
+    delta_2': p0r, p0i, ..., p3i), the increments (gr, gi) and the flat responses (swr, swi)."""
+    modes, forced, slots, rows, g, flat = fz
+    zr, zi, rr, ri, c0r, c0i = modes
+    zfr, zfi, rfr, rfi, c0fr, c0fi = forced
+    s0r, s0i, s1r, s1i, s2r, s2i, s3r, s3i, s4r, s4i, s5r, s5i, s6r, s6i, s7r, s7i = slots
+    p0r, p0i, p1r, p1i, p2r, p2i, p3r, p3i = rows
+    gr, gi = g
+    swr, swi = flat
+    nm = ypred.shape[0] // 2
+    na = alpha.shape[0]
+    nmode = zr.shape[0]
+    has_g = False
+    for q in range(e0, na):
+        aq = alpha[q]
+        if aq != 0.0:
+            q0 = q * nmode
+            if not has_g:
+                for j in range(nf):
+                    gr[j] = swr[q0 + j] * aq
+                    gi[j] = swi[q0 + j] * aq
+                has_g = True
+            else:
+                for j in range(nf):
+                    gr[j] += swr[q0 + j] * aq
+                    gi[j] += swi[q0 + j] * aq
+    b0 = alpha[0]
+    b1_ = alpha[qa[1]] if qa[1] >= 0 else 0.0
+    b2_ = alpha[qa[2]] if qa[2] >= 0 else 0.0
+    b3_ = alpha[qa[3]] if qa[3] >= 0 else 0.0
+    b4_ = b5_ = b6_ = b7_ = 0.0
+    if nm > 1:
+        b4_ = alpha[qa[4]]
+        b5_ = alpha[qa[5]] if qa[5] >= 0 else 0.0
+        b6_ = alpha[qa[6]] if qa[6] >= 0 else 0.0
+        b7_ = alpha[qa[7]] if qa[7] >= 0 else 0.0
+    y0 = 0.0
+    y1 = 0.0
+    y2 = 0.0
+    y3 = 0.0
+    if nm == 1 and not has_g:
+        for j in range(nf):
+            xr = zfr[j]
+            xi = zfi[j]
+            tr = (
+                rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_ + s3r[j] * b3_
+            )
+            ti = (
+                rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_ + s3i[j] * b3_
+            )
+            zfr[j] = tr
+            zfi[j] = ti
+            y0 += p0r[j] * tr - p0i[j] * ti
+            y1 += p1r[j] * tr - p1i[j] * ti
+    elif nm == 1:
+        for j in range(nf):
+            xr = zfr[j]
+            xi = zfi[j]
+            tr = (
+                rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
+                + s3r[j] * b3_ + gr[j]
+            )  # fmt: skip
+            ti = (
+                rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
+                + s3i[j] * b3_ + gi[j]
+            )  # fmt: skip
+            zfr[j] = tr
+            zfi[j] = ti
+            y0 += p0r[j] * tr - p0i[j] * ti
+            y1 += p1r[j] * tr - p1i[j] * ti
+    else:
+        if not has_g:
+            for j in range(nf):
+                gr[j] = 0.0
+                gi[j] = 0.0
+        for j in range(nf):
+            xr = zfr[j]
+            xi = zfi[j]
+            tr = (
+                rfr[j] * xr - rfi[j] * xi + c0fr[j] + s0r[j] * b0 + s1r[j] * b1_ + s2r[j] * b2_
+                + s3r[j] * b3_ + s4r[j] * b4_ + s5r[j] * b5_ + s6r[j] * b6_ + s7r[j] * b7_ + gr[j]
+            )  # fmt: skip
+            ti = (
+                rfr[j] * xi + rfi[j] * xr + c0fi[j] + s0i[j] * b0 + s1i[j] * b1_ + s2i[j] * b2_
+                + s3i[j] * b3_ + s4i[j] * b4_ + s5i[j] * b5_ + s6i[j] * b6_ + s7i[j] * b7_ + gi[j]
+            )  # fmt: skip
+            zfr[j] = tr
+            zfi[j] = ti
+            y0 += p0r[j] * tr - p0i[j] * ti
+            y1 += p1r[j] * tr - p1i[j] * ti
+            y2 += p2r[j] * tr - p2i[j] * ti
+            y3 += p3r[j] * tr - p3i[j] * ti
+    for j in range(nf, nmode):  # unforced modes only propagate
+        xr = zr[j]
+        xi = zi[j]
+        zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+        zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+    ypred[0] = y0
+    ypred[nm] = y1
+    if nm > 1:
+        ypred[1] = y2
+        ypred[nm + 1] = y3
+
+
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
+def _update_plain(nf: int, alpha: np.ndarray, ypred: np.ndarray, fz: tuple, flat: tuple) -> None:
+    """The modal update without the fused pass (more than two meshes or four columns a mesh): the
+    forced modes' map, then each column with a non-zero amplitude, the unforced modes, then the
+    predictions. ``fz`` as :func:`_update_fused`'s, ``flat`` = (swr, swi, crr, cri)."""
+    zr, zi, rr, ri, c0r, c0i = fz[0]
+    swr, swi, crr, cri = flat
+    nm = ypred.shape[0] // 2
+    na = alpha.shape[0]
+    nmode = zr.shape[0]
+    for j in range(nf):
+        xr = zr[j]
+        xi = zi[j]
+        zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+        zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+    for q in range(na):
+        aq = alpha[q]
+        if aq != 0.0:
+            q0 = q * nmode
+            for j in range(nf):
+                zr[j] += swr[q0 + j] * aq
+                zi[j] += swi[q0 + j] * aq
+    for j in range(nf, nmode):
+        xr = zr[j]
+        xi = zi[j]
+        zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
+        zi[j] = rr[j] * xi + ri[j] * xr + c0i[j]
+    for r in range(2 * nm):
+        q0 = r * nmode
+        sm = 0.0
+        for j in range(nf):
+            sm += crr[q0 + j] * zr[j] - cri[q0 + j] * zi[j]
+        ypred[r] = sm
