@@ -25,7 +25,8 @@ main's unchanged kernel was not reproducible bit for bit otherwise).
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/kernel_bitwise.py --save /tmp/ref.npz``
 (about two minutes plus the kernels' compilation), then after the change ``... --compare
-/tmp/ref.npz`` (exit status 1 if any array differs). ``--cases SUBSTR`` runs the cases whose name
+/tmp/ref.npz`` (exit status 1 if any array differs; repeatable, e.g. for cases saved later with
+``--cases``). ``--cases SUBSTR`` runs the cases whose name
 holds SUBSTR (repeatable).
 """
 
@@ -146,12 +147,16 @@ def run_cases(names: list[str]) -> dict[str, np.ndarray]:
     return res
 
 
-def compare(res: dict[str, np.ndarray], path: str) -> int:
-    """Arrays of ``res`` against those saved in ``path``, bit for bit; returns the number differing."""
-    ref = np.load(path)
+def compare(res: dict[str, np.ndarray], paths: list[str]) -> int:
+    """Arrays of ``res`` against those saved in ``paths``, bit for bit; returns the number differing."""
+    ref: dict[str, np.ndarray] = {}
+    for p in paths:
+        with np.load(p) as f:
+            ref.update({k: f[k] for k in f.files})
+    path = " + ".join(paths)
     bad = 0
     for k, v in res.items():
-        if k not in ref.files:
+        if k not in ref:
             print(f"  MISSING in {path}: {k}")
             bad += 1
             continue
@@ -168,7 +173,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     g = ap.add_mutually_exclusive_group(required=True)
     g.add_argument("--save", default="")
-    g.add_argument("--compare", default="")
+    g.add_argument("--compare", action="append", default=[], help="saved outputs (repeatable)")
     ap.add_argument("--cases", action="append", default=[], help="substring of the case names")
     args = ap.parse_args()
     names = [n for n in CASES if not args.cases or any(s in n for s in args.cases)]

@@ -113,7 +113,8 @@ def _event_step(
     small inlined functions (map, responses, excitation, compensation, solve, crossing, commit, right
     limits; tried in session 12) every one of them changed the outputs' round-off (LLVM then
     contracts and vectorises the same arithmetic differently), and the calibration's rows depend on
-    the solver's numbers bit for bit (docs/solver.md, "Session 12").
+    the solver's numbers bit for bit (docs/solver.md, "Session 12"); the same seven cuts at once,
+    tried again in session 17, changed 43 of 360 arrays of ``benchmarks/kernel_bitwise.py``.
 
     Arrays by role: ``ev`` = (bnd, bfe, bmesh, bkind, bdest, allow, endfe, dph, pha, fe, ph): the
     step's boundaries (fractions, jump phases, meshes, kinds, states after a located contact change,
