@@ -18,11 +18,7 @@ through the same gear kernel, ``solver/gear_kernel.py``).
 numpy's versions, the Python version, the CPU numba compiles for and the modification time and
 size of every source file holding a kernel (:func:`kernel_sources`, found by their ``@njit``; the
 quantities numba itself checks before reusing a cached function). The stamp lives in the cache
-directory, so deleting the cache also re-runs it. When it does not match, the solver's cached
-kernels are deleted first (:func:`clear_cache`): numba checks a cached function against its own
-source file only, and a caller's cached machine code holds its callees' (``run_chunk_gear`` in
-``gear_kernel.py`` holds the step loop of ``gear_loop.py``, docs/solver.md "Module layout"), so an
-edited callee would otherwise still run from its caller's cache.
+directory, so deleting the cache also re-runs it.
 """
 
 from __future__ import annotations
@@ -96,18 +92,6 @@ def is_current() -> bool:
         return False
 
 
-def clear_cache() -> int:
-    """Delete the numba cache files (index ``.nbi``, code ``.nbc``) of :func:`cache_dir`; returns how
-    many. The warm-up stamp is left: the next warm-up overwrites it."""
-    n = 0
-    d = cache_dir()
-    if d.is_dir():
-        for p in list(d.glob("*.nbi")) + list(d.glob("*.nbc")):
-            p.unlink(missing_ok=True)
-            n += 1
-    return n
-
-
 def kernel_compile_counts() -> tuple[int, int]:
     """Numba signatures of the package's cached kernels (``@njit(cache=True)``) loaded from the cache
     and compiled, so far in this process (the node logs them with its start-up time: a start after
@@ -170,14 +154,9 @@ def main(argv: list[str] | None = None) -> int:
         "--if-changed", action="store_true", help="skip when the cache is current (stamp unchanged)"
     )
     args = parser.parse_args(argv)
-    if is_current():
-        if args.if_changed:
-            print(f"[warmup] numba cache current ({cache_dir()}); nothing to compile")
-            return 0
-    else:
-        n = clear_cache()
-        if n:
-            print(f"[warmup] kernel sources changed: {n} cached kernel files deleted ({cache_dir()})")
+    if args.if_changed and is_current():
+        print(f"[warmup] numba cache current ({cache_dir()}); nothing to compile")
+        return 0
     warm_up()
     return 0
 

@@ -57,27 +57,6 @@ def test_if_changed_skips_a_current_cache(tree: Path, monkeypatch: pytest.Monkey
     assert "numba cache current" in capsys.readouterr().out
 
 
-def test_a_changed_source_clears_the_cache_first(tree: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A caller's cached code holds its callees' (numba checks only the caller's own file): when any
-    kernel source changed, the warm-up deletes the cached kernels before compiling; when none did,
-    it keeps them."""
-    d = warmup.cache_dir()
-    d.mkdir(parents=True)
-    (d / warmup.STAMP_NAME).write_text(warmup.stamp() + "\n", encoding="ascii")
-    files = [d / "gear_kernel.run_chunk_gear-1.py312.nbi", d / "gear_kernel.run_chunk_gear-1.py312.1.nbc"]
-    for p in files:
-        p.write_bytes(b"x")
-    ran = []
-    monkeypatch.setattr(warmup, "warm_up", lambda: ran.append(1))
-    assert warmup.main([]) == 0  # stamp current: compiled again from the cache, nothing deleted
-    assert ran == [1] and all(p.exists() for p in files)
-    src = tree / "solver" / "gear_loop.py"  # a callee's module, not the caller's
-    st = src.stat()
-    os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
-    assert warmup.main(["--if-changed"]) == 0
-    assert ran == [1, 1] and not any(p.exists() for p in files)
-
-
 def test_numba_cache_dir_mirrors_the_source_path(tree: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("NUMBA_CACHE_DIR", "/var/cache/nb")
     assert warmup.cache_dir() == Path("/var/cache/nb") / str(tree / "solver").lstrip(os.sep)
