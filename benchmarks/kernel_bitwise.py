@@ -25,7 +25,8 @@ main's unchanged kernel was not reproducible bit for bit otherwise). The kernels
 run, into a fresh ``NUMBA_CACHE_DIR`` (``--use-numba-cache``: the project's cache instead), so that
 both sides of a comparison run alike: the same source gives other round-off when its kernels are
 loaded from numba's cache than when they are compiled in the process (session 17, main's unchanged
-code: 226 of 330 arrays equal between the two; not traced).
+code: 226 of 330 arrays equal between the two; the set-up's arrays are equal, the kernels'
+results are not).
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/kernel_bitwise.py --save /tmp/ref.npz``
 (about two minutes plus the kernels' compilation), then after the change ``... --compare
