@@ -92,7 +92,7 @@ def _band_sos(fs: float) -> np.ndarray:
 def channel_features(
     x: np.ndarray,
     fs: float,
-    mesh_hz: float,
+    mesh_hz: float | None,
     shaft_hz: Sequence[float],
     bearing_shaft_hz: float,
     geometry: BearingGeometry = BEARING_6206,
@@ -105,10 +105,12 @@ def channel_features(
         One window of a housing acceleration, m/s^2.
     fs : float
         Sample rate, Hz.
-    mesh_hz : float
-        Mesh frequency, Hz.
+    mesh_hz : float or None
+        Mesh frequency, Hz. ``None``: a machine without a gear mesh (the CWRU rig): ``fm0``,
+        ``fm4`` and ``ser`` are not returned, ``na4`` is the kurtosis of ``x`` without shaft orders 1-3.
     shaft_hz : sequence of float
-        Rotation frequencies of the shafts carrying the mesh (pinion, gear), Hz.
+        Rotation frequencies of the shafts carrying the mesh (pinion, gear), Hz; without a mesh, the
+        shaft's.
     bearing_shaft_hz : float
         Rotation frequency of the shaft in the bearing under this accelerometer, Hz.
     """
@@ -118,36 +120,37 @@ def channel_features(
     amp = amp[:, 0]
     fmin = min(shaft_hz)
     hw = HALFWIDTH_ORDERS * fmin
-    harmonics = [h * mesh_hz for h in range(1, int(0.5 * fs / mesh_hz) + 1)]
-    mesh_sum = sum(_line(freqs, amp, f, hw) for f in harmonics)
+    harmonics = [h * mesh_hz for h in range(1, int(0.5 * fs / mesh_hz) + 1)] if mesh_hz else []
     shaft_lines = [k * s for s in shaft_hz for k in (1, 2, 3)]
-    sidebands = [f + sgn * s for f in harmonics for s in shaft_hz for sgn in (-1, 1)]
     residual = _remove_lines(x, fs, harmonics + shaft_lines, hw)
-    difference = _remove_lines(residual, fs, sidebands, hw)
-    a_mesh = _line(freqs, amp, mesh_hz, hw)
-    ser_sum = sum(
-        _line(freqs, amp, mesh_hz + sgn * k * s, hw) for s in shaft_hz for k in (1, 2, 3) for sgn in (-1, 1)
-    )
     env = np.abs(signal.hilbert(signal.sosfiltfilt(_band_sos(fs), x - x.mean())))
     ef, ea = amplitude_spectrum(env, fs)
     ea = ea[:, 0]
     floor = float(np.median(ea[(ef > 0) & (ef <= ENVELOPE_FLOOR_HZ)])) or 1e-300
     mult = geometry.multiples()
     env_hw = max(0.01 * bearing_shaft_hz * mult["bpfo"], 2.0 * (ef[1] - ef[0]))
-    return {
+    out = {
         "rms": rms,
         "kurtosis": kurt,
         "crest_factor": crest,
-        "fm0": float(np.ptp(x) / mesh_sum) if mesh_sum > 0 else 0.0,
-        "fm4": _kurtosis(difference),
         "na4": _kurtosis(residual),
-        "ser": ser_sum / a_mesh if a_mesh > 0 else 0.0,
         "order1": _line(freqs, amp, bearing_shaft_hz, HALFWIDTH_ORDERS * bearing_shaft_hz),
         "order2": _line(freqs, amp, 2.0 * bearing_shaft_hz, HALFWIDTH_ORDERS * bearing_shaft_hz),
         "env_bpfo": _line(ef, ea, mult["bpfo"] * bearing_shaft_hz, env_hw) / floor,
         "env_bpfi": _line(ef, ea, mult["bpfi"] * bearing_shaft_hz, env_hw) / floor,
         "env_bsf": _line(ef, ea, 2.0 * mult["bsf"] * bearing_shaft_hz, env_hw) / floor,
     }
+    if mesh_hz:
+        sidebands = [f + sgn * s for f in harmonics for s in shaft_hz for sgn in (-1, 1)]
+        difference = _remove_lines(residual, fs, sidebands, hw)
+        a_mesh = _line(freqs, amp, mesh_hz, hw)
+        ser_lines = [mesh_hz + sgn * k * s for s in shaft_hz for k in (1, 2, 3) for sgn in (-1, 1)]
+        ser_sum = sum(_line(freqs, amp, f, hw) for f in ser_lines)
+        mesh_sum = sum(_line(freqs, amp, f, hw) for f in harmonics)
+        out["fm0"] = float(np.ptp(x) / mesh_sum) if mesh_sum > 0 else 0.0
+        out["fm4"] = _kurtosis(difference)
+        out["ser"] = ser_sum / a_mesh if a_mesh > 0 else 0.0
+    return out
 
 
 @functools.lru_cache(maxsize=8)
