@@ -23,8 +23,9 @@ Scores (docs/detection.md, "On data the model did not make"):
     lumped records of even offset position (:func:`gear_rotor_sim.alarms_learn.learn`, what
     ``gear-rotor-sim thresholds learn`` runs), scored on the fault records and on the healthy
     records of odd position (held out);
-(c) CWRU: the bearing indicators (RMS, kurtosis, crest factor, envelope lines at the 6205's BPFO,
-    BPFI and 2 BSF; no mesh, so no FM0/FM4/SER) learnt on the first half of the normal file.
+(c) CWRU: the monitor's features on ``config/cwru_rig.yaml`` (no mesh, so no FM0/FM4/SER; envelope
+    lines at the 6205's BPFO, BPFI and 2 BSF), as ``thresholds learn`` reads the files, learnt on the
+    first half of the normal file; the three bearing groups scored.
 
 Windows: 0.25 s from 0.5 s (6 per 2 s record), as in the FE benchmark; CWRU: 0.25 s from 0 s.
 
@@ -51,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from gear_rotor_sim.alarms import FAULT_GROUPS, FaultAlarms, group_alarms, operating_class
-from gear_rotor_sim.alarms_learn import RecordWindow, array_windows, features_of, learn
+from gear_rotor_sim.alarms_learn import RecordWindow, array_windows, features_of, learn, measurement_windows
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from detection import write_block  # the FE benchmark's Markdown block writer
@@ -254,22 +255,14 @@ def shipped_versus_lumped(specs: list[Spec], rows: list[list[dict]]) -> list[dic
 
 
 def cwru_windows(directory: Path, window_s: float = 0.25) -> dict[str, tuple[list[dict], float]]:
-    """Bearing-indicator features of every window of each CWRU file in ``directory`` (drive end, 12 kHz)."""
-    from gear_rotor_sim.calibration.cwru import CWRU_FILES, load_cwru
-    from gear_rotor_sim.fault_indicators import channel_features
-    from gear_rotor_sim.faults import BEARING_6205
+    """The monitor's features of every window of each CWRU file in ``directory`` (drive end, 12 kHz;
+    ``config/cwru_rig.yaml``: no gear mesh, the 6205 at the drive end), as ``thresholds learn`` reads them."""
+    from gear_rotor_sim.calibration.cwru import CWRU_FILES
 
     out = {}
     for name in CWRU_FILES:
-        m = load_cwru(Path(directory) / name, duration_s=None)
-        fr = m.operating_point.speed_rpm / 60.0
-        ch = {m.model_channels[0]: m.data[:, 0]}
-        wins = array_windows(ch, m.sample_rate_hz, m.operating_point.speed_rpm, 25.0, window_s, 0.0)
-        feats = []
-        for w in wins:
-            f = channel_features(w.data[:, 0], w.sample_rate_hz, None, [fr], fr, BEARING_6205)
-            feats.append({f"{w.channels[0]}.{k}": v for k, v in f.items()})
-        out[name] = (feats, m.operating_point.speed_rpm)
+        wins, gearbox = measurement_windows(str(Path(directory) / name), window_s, 0.0)
+        out[name] = (features_of(wins, gearbox), wins[0].speed_rpm)
     return out
 
 

@@ -25,7 +25,9 @@ from gear_rotor_sim.alarms_learn import SKIP_S, WINDOW_S
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
     lrn = sub.add_parser("learn", help="learn thresholds from healthy records of one machine")
-    lrn.add_argument("records", nargs="+", help="healthy measurement files (.csv + .yaml sidecar, .mcap)")
+    lrn.add_argument(
+        "records", nargs="+", help="healthy measurement files (.csv + .yaml sidecar, .mcap, CWRU .mat)"
+    )
     lrn.add_argument("--out", required=True, help="thresholds JSON to write (fault_thresholds_file)")
     lrn.add_argument("--k", type=float, default=6.0, help="threshold = mean + k std (default 6)")
     lrn.add_argument(
@@ -55,6 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         p.add_argument(
             "--skip-s", type=float, default=SKIP_S, help=f"start of the first window, s (default {SKIP_S:g})"
         )
+        p.add_argument("--duration-s", type=float, help="use only this much of each record after --skip-s, s")
 
 
 def _learn(args: argparse.Namespace) -> int:
@@ -63,7 +66,7 @@ def _learn(args: argparse.Namespace) -> int:
 
     feats, points, configs = [], [], set()
     for path in args.records:
-        wins, gearbox = measurement_windows(path, args.window_s, args.skip_s)
+        wins, gearbox = measurement_windows(path, args.window_s, args.skip_s, args.duration_s)
         configs.add(gearbox)
         feats += features_of(wins, gearbox)
         points += [(w.speed_rpm, w.temperature_c) for w in wins]
@@ -85,7 +88,7 @@ def _check(args: argparse.Namespace) -> int:
     alarms = FaultAlarms(args.thresholds)
     n_win = n_alarm = 0
     for path in args.records:
-        wins, _ = measurement_windows(path, args.window_s, args.skip_s)
+        wins, _ = measurement_windows(path, args.window_s, args.skip_s, args.duration_s)
         for w in wins:
             hit, cls = alarms.check(w)
             n_win += 1

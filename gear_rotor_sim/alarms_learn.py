@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -44,6 +45,7 @@ def array_windows(
     temperature_c: float,
     window_s: float = WINDOW_S,
     skip_s: float = SKIP_S,
+    duration_s: float | None = None,
 ) -> list[RecordWindow]:
     """Consecutive, non-overlapping windows of the housing channels (``bearing<k>_housing_a<x|y|z>``).
 
@@ -55,6 +57,8 @@ def array_windows(
         Sample rate and declared operating point of the record.
     window_s, skip_s : float
         Window length and start of the first window (the record's start is skipped), s.
+    duration_s : float, optional
+        Only windows that end within ``skip_s + duration_s`` (default: to the record's end).
 
     Raises
     ------
@@ -69,23 +73,41 @@ def array_windows(
         raise ValueError(f"window_s: {window_s!r} gives fewer than 2 samples at {sample_rate_hz:g} Hz")
     data = np.column_stack([np.asarray(channels[c], float) for c in names])
     start = round(skip_s * sample_rate_hz)
+    stop = (
+        data.shape[0]
+        if duration_s is None
+        else min(data.shape[0], start + round(duration_s * sample_rate_hz))
+    )
     return [
         RecordWindow(data[i : i + n], names, sample_rate_hz, speed_rpm, temperature_c, i / sample_rate_hz)
-        for i in range(start, data.shape[0] - n + 1, n)
+        for i in range(start, stop - n + 1, n)
     ]
 
 
-def measurement_windows(
-    path: str, window_s: float = WINDOW_S, skip_s: float = SKIP_S
-) -> tuple[list[RecordWindow], str]:
-    """:func:`array_windows` of a measurement file
-    (:func:`gear_rotor_sim.calibration.measurement.load_measurement`) and its declared gearbox."""
+def load_record(path: str) -> Any:
+    """A measurement file (:func:`gear_rotor_sim.calibration.measurement.load_measurement`); a CWRU
+    ``.mat`` file without a ``.yaml`` of its own goes through the built-in CWRU mapping (12 kHz,
+    :func:`gear_rotor_sim.calibration.cwru.load_cwru`), as in ``gear-rotor-sim calibrate``."""
+    from pathlib import Path
+
+    from gear_rotor_sim.calibration import cwru
     from gear_rotor_sim.calibration.measurement import load_measurement
 
-    m = load_measurement(path)
+    p = Path(path)
+    if p.suffix.lower() == ".mat" and cwru.is_cwru_file(p) and not p.with_suffix(".yaml").exists():
+        return cwru.load_cwru(p, duration_s=None)
+    return load_measurement(p)
+
+
+def measurement_windows(
+    path: str, window_s: float = WINDOW_S, skip_s: float = SKIP_S, duration_s: float | None = None
+) -> tuple[list[RecordWindow], str]:
+    """:func:`array_windows` of a measurement file (:func:`load_record`) and its declared gearbox."""
+    m = load_record(path)
     cols = {name: m.data[:, i] for i, name in enumerate(m.model_channels)}
     op = m.operating_point
-    return array_windows(cols, m.sample_rate_hz, op.speed_rpm, op.temperature_c, window_s, skip_s), m.gearbox
+    wins = array_windows(cols, m.sample_rate_hz, op.speed_rpm, op.temperature_c, window_s, skip_s, duration_s)
+    return wins, m.gearbox
 
 
 def learn(

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from gear_rotor_sim.faults.bearing import BEARING_6206, BearingGeometry
+from gear_rotor_sim.faults.bearing import BEARING_6205, BEARING_6206, BearingGeometry
 from gear_rotor_sim.indicators import amplitude_spectrum, statistics
 
 FEATURES = (
@@ -153,35 +153,50 @@ def channel_features(
     return out
 
 
+#: rolling-bearing geometry by a config's bearing type name (other names: the paper gearbox's 6206)
+GEOMETRY_BY_TYPE: dict[str, BearingGeometry] = {"6205": BEARING_6205, "6206": BEARING_6206}
+
+
 @functools.lru_cache(maxsize=8)
-def _rig(config: str) -> tuple[int, tuple[float, ...], tuple[float, ...]]:
-    """Pinion teeth, |speed ratios| of the meshing shafts, |speed ratio| of each bearing's shaft."""
+def _rig(config: str) -> tuple[int, tuple[float, ...], tuple[float, ...], tuple[BearingGeometry, ...]]:
+    """Pinion teeth (0: no gear mesh), |speed ratios| of the meshing shafts, |speed ratio| of each
+    bearing's shaft, each bearing's geometry (:data:`GEOMETRY_BY_TYPE`)."""
     from gear_rotor_sim.config import load_config
     from gear_rotor_sim.system import shaft_speed_ratios
 
     cfg = load_config(config)
     ratios = np.abs(shaft_speed_ratios(cfg))
+    bearing = tuple(float(ratios[cfg.shaft_of_node(b.node0)]) for b in cfg.bearings)
+    geometry = tuple(GEOMETRY_BY_TYPE.get(b.type_name, BEARING_6206) for b in cfg.bearings)
+    if not cfg.meshes:
+        return 0, (), bearing, geometry
     m = cfg.meshes[0]
     sp = cfg.shaft_of_node(cfg.gear(m.pinion).node0)
     sg = cfg.shaft_of_node(cfg.gear(m.gear).node0)
-    bearing = tuple(float(ratios[cfg.shaft_of_node(b.node0)]) for b in cfg.bearings)
-    return int(m.pinion_teeth), (float(ratios[sp]), float(ratios[sg])), bearing
+    return int(m.pinion_teeth), (float(ratios[sp]), float(ratios[sg])), bearing, geometry
+
+
+def has_gear_mesh(config: str) -> bool:
+    """Whether the rig of ``config`` has a gear mesh (the mesh features and gear fault groups apply)."""
+    return _rig(config)[0] > 0
 
 
 def window_features(window: Any, config: str = "paper_sun2021") -> dict[str, float]:
     """Features of the housing channels of a :class:`gear_rotor_sim.datasets.Window`:
-    ``{"<channel>.<feature>": value}``."""
-    teeth, mesh_ratios, bearing_ratios = _rig(config)
+    ``{"<channel>.<feature>": value}``. On a rig without a gear mesh (``config/cwru_rig.yaml``) the
+    mesh features are left out and the shaft orders are those of the bearing's shaft."""
+    teeth, mesh_ratios, bearing_ratios, geometry = _rig(config)
     f_in = window.speed_rpm / 60.0
     shafts = [r * f_in for r in mesh_ratios]
-    mesh_hz = teeth * shafts[0]
+    mesh_hz = teeth * shafts[0] if teeth else None
     out: dict[str, float] = {}
     for j, name in enumerate(window.channels):
         if "_housing_a" not in name:
             continue
         k = int(name[len("bearing") : name.index("_")])
+        f_b = bearing_ratios[k - 1] * f_in
         feats = channel_features(
-            window.data[:, j], window.sample_rate_hz, mesh_hz, shafts, bearing_ratios[k - 1] * f_in
+            window.data[:, j], window.sample_rate_hz, mesh_hz, shafts or [f_b], f_b, geometry[k - 1]
         )
         out.update({f"{name}.{key}": v for key, v in feats.items()})
     return out
