@@ -460,10 +460,14 @@ def main(argv: list[str] | None = None) -> int:
 
         res["cwru"] = score_cwru(cwru_windows(args.cwru_dir or cwru_data_dir(ROOT)), KS)
     n_h = sum(s.kind == "healthy" for s in specs)
+    made_text = (
+        f"{len(made)} records simulated in {t_gen:.0f} s wall ({np.mean(made):.1f} s CPU each)"
+        if made
+        else f"all records read from the cache in {args.out}"
+    )
     head = (
         f"{len(specs)} lumped_gearbox records ({len(specs) - n_h} faulty, {n_h} healthy), "
-        f"{sum(len(r) for r in rows)} windows of 0.25 s from 0.5 s; {len(made)} records simulated in "
-        f"{t_gen:.0f} s wall ({(np.mean(made) if made else 0.0):.1f} s CPU each), features and alarms in "
+        f"{sum(len(r) for r in rows)} windows of 0.25 s from 0.5 s; {made_text}; features and alarms in "
         f"{t_feat:.0f} s wall, {args.workers} worker(s)"
     )
     text = markdown(res, head)
