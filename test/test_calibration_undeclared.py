@@ -1,8 +1,8 @@
 """Effects nobody declared (issue 11; benchmarks/calibration_undeclared.py): a channel's sign, a force
 sensor's sensitivity or axes, a clipped channel, an accelerometer's DC offset.
 
-The check functions are tested on analytic signals (calibration/channel_conventions.py,
-measurement_sensor_checks.py)."""
+The check functions are tested on analytic signals; one calibration reads a reversed accelerometer
+back (calibration/channel_conventions.py, measurement_sensor_checks.py)."""
 
 from __future__ import annotations
 
@@ -125,6 +125,7 @@ def test_an_accelerometer_offset_is_reported_and_a_zero_mean_vibration_is_not():
     mean, n_se = acceleration_offset(x + 0.5 * np.std(x))
     assert mean == pytest.approx(0.5 * np.std(x), rel=0.02) and n_se > 5
     assert acceleration_offset(x + 0.2 * np.std(x)) is None  # below DC_FRACTION of the std
+    assert acceleration_offset(np.full(t.size, 9.80665)) is None  # constant: no vibration to compare with
     chans = (
         ChannelSpec("node5_ax", "acceleration", "m/s^2", node=5, direction="x"),
         ChannelSpec("bearing2_fy", "bearing_force", "N", bearing=2, direction="y"),
@@ -135,3 +136,28 @@ def test_an_accelerometer_offset_is_reported_and_a_zero_mean_vibration_is_not():
     assert len(issues) == 2
     assert issues[0].startswith("column 'node5_ax'") and "DC offset" in issues[0]
     assert issues[1].startswith("column 'bearing2_fy'") and "maximum" in issues[1]
+
+
+def test_a_reversed_accelerometer_is_read_back_and_diagnosed_as_declared(
+    shared_records, pinion_tooth_calibration
+):
+    """The shared 0.6 s pinion-tooth record (conftest.py) with node5_ay's sign reversed: the
+    calibration says so in ``issues``, reads it back, and finds what the correctly signed record gives."""
+    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.measurement import load_measurement
+
+    m = load_measurement(shared_records["pinion_tooth"])
+    k = [c.column for c in m.channels].index("node5_ay")
+    m.data[:, k] *= -1.0
+    res = Calibrator(m).run()
+    flagged = [i for i in res.measurement.issues if "'node5_ay'" in i]
+    assert len(flagged) == 1 and "sign" in flagged[0] and "reversed" in flagged[0]
+    ref = pinion_tooth_calibration
+    assert ref.effects and [e.label for e in res.effects] == [e.label for e in ref.effects]
+    for a, b in zip(res.effects, ref.effects, strict=True):
+        assert a.parameters.keys() == b.parameters.keys()
+        for key, val in b.parameters.items():
+            want = pytest.approx(val, rel=1e-9) if isinstance(val, float) else val
+            assert a.parameters[key] == want, key
+    assert res.error_before == pytest.approx(ref.error_before, rel=1e-9)
+    assert res.error_after == pytest.approx(ref.error_after, rel=1e-9)

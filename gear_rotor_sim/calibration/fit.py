@@ -59,6 +59,7 @@ import numpy as np
 from gear_rotor_sim.calibration.candidates_tooth_path import (
     contact_tooth_path,
 )
+from gear_rotor_sim.calibration.channel_conventions import check_conventions
 from gear_rotor_sim.calibration.confirm_updated import stalled_round_step
 from gear_rotor_sim.calibration.features_bearing import impulse_note
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
@@ -243,6 +244,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
             candidates = candidate_effects(cfg, bearing_geometry, bearings=tuple(observed) or None)
         self.candidates = list(candidates)
         env_max = self._envelope_max(cfg, bearing_geometry)
+        # what a sign correction sets up again (channel_conventions.check_conventions)
+        self._issues_at_init = list(measurement.issues)
+        self._steps_at_init, self._env_max = steps_per_mesh, env_max
         self.cmp = Comparison(measurement, self.runner, self.settings, env_max)
         self.notes: list[str] = []
         #: what the rattle wear rule read, claimed or not (``candidates_wear_rattle``); None if not run
@@ -271,7 +275,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
 
     def run(self) -> CalibrationResult:
         self._feat_correction: ModelFeatures | None = None
-        base_out = self._setup()
+        base_out = check_conventions(self, self._setup())
         self._at_rattle = False
         if self.rattle_rules:
             # where the teeth separate: honest order uncertainties (features_rattle.py)

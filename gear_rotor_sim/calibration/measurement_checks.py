@@ -17,6 +17,7 @@ from gear_rotor_sim.calibration.measurement_contract import (
     _err,
     unit_factor,
 )
+from gear_rotor_sim.calibration.measurement_sensor_checks import sensor_issues
 
 #: Largest magnitude of a measured sample per dimension (SI), beyond any vibration sensor's range:
 #: a sample beyond it is refused (a sensor glitch, a wrong unit). 1 m of DTE or displacement,
@@ -153,6 +154,7 @@ def _finish(
         data = data[best[0] : best[1]]
         t0 = float(time[best[0]]) if time is not None else t0 + best[0] / fs
     data = _replace_spikes(data, channels, t0, fs, issues)
+    issues.extend(sensor_issues(data, channels, [SI_UNIT[_dimension(c)] for c in channels]))
     return Measurement(src, fs, float(t0), np.ascontiguousarray(data, float), channels, op, gearbox, issues)
 
 

@@ -84,13 +84,16 @@ def acceleration_offset(x: np.ndarray) -> tuple[float, float] | None:
     -------
     (float, float) or None
         ``(mean, mean / standard error)`` beyond :data:`DC_FRACTION` x std and :data:`DC_SIGMAS`
-        standard errors of the :data:`DC_BLOCKS` block means; None otherwise.
+        standard errors of the :data:`DC_BLOCKS` block means; None otherwise, and for a constant
+        channel (standard deviation below 1e-6 of the mean: no vibration to compare the mean with).
     """
     f = x[np.isfinite(x)]
     n = f.size // DC_BLOCKS
     if n < 2:
         return None
     mean, std = float(np.mean(f)), float(np.std(f))
+    if not std > 1e-6 * abs(mean):
+        return None  # a constant channel carries no vibration to hold an offset against
     blocks = f[: n * DC_BLOCKS].reshape(DC_BLOCKS, n).mean(axis=1)
     se = float(np.std(blocks, ddof=1)) / np.sqrt(DC_BLOCKS)
     if abs(mean) > DC_FRACTION * std and abs(mean) > DC_SIGMAS * se:
@@ -113,7 +116,7 @@ def sensor_issues(data: np.ndarray, channels: Sequence[ChannelSpec], si_units: S
             dc = acceleration_offset(x)
             if dc is not None:
                 out.append(
-                    f"column {c.column!r}: mean {dc[0]:.4g} {si_units[k]} ({dc[1]:.0f} standard errors), "
+                    f"column {c.column!r}: mean {dc[0]:.4g} {si_units[k]} ({dc[1]:.3g} standard errors), "
                     f"where a vibration acceleration averages to zero: a DC offset of the sensor or its "
                     "conditioning (not used by the features: orders from 1, band-passed envelopes)"
                 )
