@@ -161,3 +161,4 @@ def test_a_reversed_accelerometer_is_read_back_and_diagnosed_as_declared(
             assert a.parameters[key] == want, key
     assert res.error_before == pytest.approx(ref.error_before, rel=1e-9)
     assert res.error_after == pytest.approx(ref.error_after, rel=1e-9)
+    assert res.notes == ref.notes

@@ -180,8 +180,9 @@ def radial_mean_issues(
     return out
 
 
-def check_conventions(cal: Any, base_out: np.ndarray) -> np.ndarray:
-    """The calibrator's hook after the healthy model's first run (``Calibrator.run``).
+def check_conventions(cal: Any) -> np.ndarray:
+    """The calibrator's setup (``_setup``, the healthy model's first run) and the checks on it
+    (``Calibrator.run``).
 
     Reads the sign of every channel against the healthy model (:func:`sign_fix`); if one is reversed,
     the measurement is corrected, its ``issues`` get the entry, and the comparison and the healthy run
@@ -192,10 +193,8 @@ def check_conventions(cal: Any, base_out: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     cal : Calibrator
-        After ``_setup``; it holds ``_issues_at_init``, ``_steps_at_init`` and ``_env_max`` from its
+        Not yet set up; it holds ``_issues_at_init``, ``_steps_at_init`` and ``_env_max`` from its
         construction.
-    base_out : numpy.ndarray
-        The healthy model's outputs returned by ``_setup``.
 
     Returns
     -------
@@ -204,6 +203,8 @@ def check_conventions(cal: Any, base_out: np.ndarray) -> np.ndarray:
     """
     from gear_rotor_sim.calibration.residual import Comparison
 
+    n_notes = len(cal.notes)
+    base_out = cal._setup()
     cmp = cal.cmp
     if "order" in cmp.families and cmp.shafts:
         feats = cal._features(cal.base_raw)
@@ -214,6 +215,7 @@ def check_conventions(cal: Any, base_out: np.ndarray) -> np.ndarray:
             cal.log("; ".join(fix.issues))
             cal.m.data = fix.apply(cal.m.data)
             cal.m.issues[:] = [*cal._issues_at_init, *fix.issues]
+            del cal.notes[n_notes:]  # the first setup's notes (the step count) come again
             cal.runner.steps_per_mesh = cal._steps_at_init
             cal.step_choice = None
             cal.cmp = Comparison(cal.m, cal.runner, cal.settings, cal._env_max)

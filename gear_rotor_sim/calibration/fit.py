@@ -275,7 +275,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
 
     def run(self) -> CalibrationResult:
         self._feat_correction: ModelFeatures | None = None
-        base_out = check_conventions(self, self._setup())
+        base_out = check_conventions(self)  # _setup and the sensor conventions
         self._at_rattle = False
         if self.rattle_rules:
             # where the teeth separate: honest order uncertainties (features_rattle.py)
