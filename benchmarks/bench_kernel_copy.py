@@ -18,6 +18,11 @@ source from ``git show main:gear_rotor_sim/solver/gear_kernel.py``), alternated 
 time (``time.process_time``) per simulated second, medians of ``--runs`` alternated runs (session
 9's method: two copies of the same source show the placement noise).
 
+``flatten OUT``: the installed gear kernel, split into modules of one role each since session 17
+(docs/solver.md, "Module layout"), written as one self-contained source (:func:`flat_source`), so
+that ``--copy``, ``--kernel`` and ``--against`` can take a copy of it (and
+``profile_event_steps.py sections`` instrument it).
+
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_kernel_copy.py bitwise --save
 /tmp/ref.npz`` (about a minute), ``... bitwise --compare /tmp/ref.npz``, ``... timing --copy
 /tmp/gear_kernel_main.py --copy /tmp/gear_kernel_main2.py [--rpm 20000] [--runs 9]
@@ -27,6 +32,7 @@ Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_kernel_copy.py b
 from __future__ import annotations
 
 import argparse
+import ast
 import importlib.util
 import os
 import statistics
@@ -42,6 +48,9 @@ from gear_rotor_sim.simulator import Simulator
 from gear_rotor_sim.solver import gear_kernel
 
 SPEEDS_RPM = (3000.0, 8000.0, 20000.0)
+#: The gear kernel's modules in the order their names are defined (docs/solver.md, "Module layout").
+KERNEL_MODULES = ("gear_tables", "gear_mesh_solve", "gear_events", "gear_jumps", "gear_output", "gear_loop",
+                  "gear_kernel")  # fmt: skip
 DURATION_S = 0.2
 
 
@@ -184,6 +193,34 @@ def bitwise(save: str, compare: str, kernel: str) -> int:
     return 1 if bad else 0
 
 
+def flat_source() -> str:
+    """The installed gear kernel's modules (:data:`KERNEL_MODULES`) as one source: their module
+    docstrings and imports dropped, the names they take from :mod:`gear_rotor_sim.solver.kernels`
+    imported once at the top, the bodies in order, unchanged."""
+    folder = os.path.dirname(gear_kernel.__file__)
+    from_kernels: set[str] = set()
+    bodies = []
+    for mod in KERNEL_MODULES:
+        with open(os.path.join(folder, mod + ".py"), encoding="utf-8") as fh:
+            src = fh.read()
+        tree = ast.parse(src)
+        drop: set[int] = set()
+        for k, node in enumerate(tree.body):
+            doc = k == 0 and isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)
+            if isinstance(node, ast.ImportFrom) and node.module == "gear_rotor_sim.solver.kernels":
+                from_kernels.update(a.name for a in node.names)
+            if doc or isinstance(node, ast.Import | ast.ImportFrom):
+                drop.update(range(node.lineno - 1, node.end_lineno or node.lineno))
+        lines = src.split("\n")
+        bodies.append("\n".join(ln for i, ln in enumerate(lines) if i not in drop).strip("\n"))
+    head = (
+        f'"""The gear kernel of {folder} as one source (bench_kernel_copy.py flatten)."""\n\n'
+        "from __future__ import annotations\n\nimport numpy as np\nfrom numba import njit\n\n"
+        f"from gear_rotor_sim.solver.kernels import {', '.join(sorted(from_kernels))}\n"
+    )
+    return head + "\n\n" + "\n\n\n".join(bodies) + "\n"
+
+
 def _load_copy(path: str) -> object:
     # one module name per file: numba's cache of the copy re-imports its module by that name
     stem = "".join(c if c.isalnum() else "_" for c in os.path.splitext(os.path.basename(path))[0])
@@ -243,6 +280,8 @@ def main() -> int:
     b.add_argument(
         "--kernel", default="", help="a copy of gear_kernel.py to run instead of the installed one"
     )
+    f = sub.add_parser("flatten")
+    f.add_argument("out")
     t = sub.add_parser("timing")
     t.add_argument("--copy", action="append", default=[])
     t.add_argument("--rpm", type=float, default=20000.0)
@@ -254,6 +293,11 @@ def main() -> int:
         return against(args.against)
     if args.cmd == "bitwise":
         return bitwise(args.save, args.compare, args.kernel)
+    if args.cmd == "flatten":
+        with open(args.out, "w", encoding="utf-8") as fh:
+            fh.write(flat_source())
+        print(f"wrote {args.out}")
+        return 0
     timing(args.copy, args.rpm, args.runs, args.chunk, args.average_table_jumps)
     return 0
 

@@ -169,15 +169,20 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.json:
         args.json.write_text(json.dumps(results, indent=1), encoding="utf-8")
-    if args.markdown:
-        md = args.markdown.read_text(encoding="utf-8")
-        begin, end = "<!-- results: begin -->", "<!-- results: end -->"
-        if begin not in md or end not in md:
-            print(f"{args.markdown}: no '{begin}' ... '{end}' block", file=sys.stderr)
-            return 2
-        md = md[: md.index(begin) + len(begin)] + "\n" + text + "\n" + md[md.index(end) :]
-        args.markdown.write_text(md, encoding="utf-8")
-        print(f"wrote {args.markdown}")
+    return write_block(args.markdown, text, "results") if args.markdown else 0
+
+
+def write_block(path: Path, text: str, name: str) -> int:
+    """Replace what stands between ``<!-- NAME: begin -->`` and ``<!-- NAME: end -->`` in a Markdown
+    file by ``text``; 0, or 2 when the file has no such block."""
+    md = path.read_text(encoding="utf-8")
+    begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+    if begin not in md or end not in md:
+        print(f"{path}: no '{begin}' ... '{end}' block", file=sys.stderr)
+        return 2
+    md = md[: md.index(begin) + len(begin)] + "\n" + text + "\n" + md[md.index(end) :]
+    path.write_text(md, encoding="utf-8")
+    print(f"wrote {path}")
     return 0
 
 

@@ -15,8 +15,9 @@ directory, so the debug build does not replace the project's cached kernels), sa
 ``perf record`` (user space, the child's PID) and maps every sampled instruction address to its
 function and source line with ``gdb`` attached to the child (numba registers its objects through
 LLVM's GDB JIT interface). Prints the share of the samples per function (shared libraries: libm's
-``sin``/``cos``/``exp``) and per line of ``gear_kernel.py``, grouped by the parts of the step
-(``--top`` lines). The debug build is the optimised code plus line tables; its time per step is
+``sin``/``cos``/``exp``) and per line of the gear kernel's modules (``gear_events.py``,
+``gear_loop.py``, ``gear_mesh_solve.py``, ...; docs/solver.md "Module layout"), grouped by the parts
+of the step (``--top`` lines). The debug build is the optimised code plus line tables; its time per step is
 printed so that it can be compared with the project's build.
 
 ``dense PATH``: the cost per sub-step with the event steps sparse and dense (:func:`dense`).
@@ -43,8 +44,6 @@ import tempfile
 import time
 
 import numpy as np
-
-KERNEL_FILE = "gear_kernel.py"
 
 
 def capture(path: str, rpm: float, cutoff: object) -> None:
@@ -113,14 +112,16 @@ def _gdb_lines(pid: int, addrs: list[int]) -> dict[int, tuple[str, int, str]]:
 
 def _short(fn: str) -> str:
     """The Python name in a numba symbol (``...11gear_kernel9_run_loopB3v22...`` -> ``_run_loop``)."""
-    m = re.search(r"(?:gear_kernel|kernels)(\d+)", fn)
+    m = re.search(r"(?:gear_[a-z_]+?|kernels)(\d+)", fn)
     if m is None:
         return fn[:60]
     n = int(m.group(1))
     return fn[m.end() : m.end() + n]
 
 
-def profile(path: str, seconds: float, top: int, groups: list[tuple[str, int, int]], debuginfo: bool) -> None:
+def profile(
+    path: str, seconds: float, top: int, groups: list[tuple[str, str, int, int]], debuginfo: bool
+) -> None:
     env = dict(os.environ)
     if debuginfo:  # line tables; its own cache directory (the project's cached kernels stay as they are)
         env.update(NUMBA_DEBUGINFO="1", NUMBA_CACHE_DIR=tempfile.mkdtemp(prefix="nb_dbg_"))
@@ -191,14 +192,10 @@ def profile(path: str, seconds: float, top: int, groups: list[tuple[str, int, in
         )
     if not debuginfo:
         return
-    print("\nby part of gear_kernel.py (line ranges of this source):")
-    for name, a, b in groups:
-        c = sum(
-            v
-            for k, v in by_line.items()
-            if k.startswith(KERNEL_FILE + ":") and a <= int(k.split(":")[1]) <= b
-        )
-        print(f"  {100.0 * c / total:6.2f} %  {name} (lines {a}-{b})")
+    print("\nby part of the kernel (line ranges of its sources):")
+    for name, file, a, b in groups:
+        c = sum(v for k, v in by_line.items() if k.startswith(file + ":") and a <= int(k.split(":")[1]) <= b)
+        print(f"  {100.0 * c / total:6.2f} %  {name} ({file} lines {a}-{b})")
     print(f"\ntop {top} lines:")
     for k, c in by_line.most_common(top):
         print(f"  {100.0 * c / total:6.2f} %  {k}")
@@ -279,10 +276,11 @@ def _rdtsc(typingctx):  # llvm.readcyclecounter: the time-stamp counter (not ser
 
 
 def instrument(src: str) -> str:
-    """``gear_kernel.py``'s source with time-stamp counter reads at the sections of ``_event_step``
-    (:data:`SECTION_MARKS`; ``prof[k]`` ticks, ``prof[16]`` committed and ``prof[21]`` re-split
-    sub-steps), around the event step's call (``prof[8]``, ``prof[17]`` calls) and the whole loop
-    (``prof[10]``); ``run_chunk_gear`` takes ``prof`` (int64, 32) as its last argument."""
+    """The gear kernel's one-file source (``bench_kernel_copy.flat_source``) with time-stamp counter
+    reads at the sections of ``_event_step`` (:data:`SECTION_MARKS`; ``prof[k]`` ticks, ``prof[16]``
+    committed and ``prof[21]`` re-split sub-steps), around the event step's call (``prof[8]``,
+    ``prof[17]`` calls) and the whole loop (``prof[10]``); ``run_chunk_gear`` takes ``prof`` (int64,
+    32) as its last argument."""
     out: list[str] = []
     in_ev = False
     for line in src.split("\n"):
@@ -315,7 +313,7 @@ def instrument(src: str) -> str:
     )  # fmt: skip
     for old, new in reps:
         if old not in s:
-            raise ValueError(f"gear_kernel.py has changed: {old.strip()[:50]!r} not found")
+            raise ValueError(f"the gear kernel has changed: {old.strip()[:50]!r} not found")
         s = s.replace(old, new, 1)
     return s
 
@@ -326,9 +324,14 @@ def sections(path: str, reps: int, src_path: str) -> None:
     - 1 runs. The counter is not serialising: a section's figure may carry some of its neighbours'."""
     import importlib.util
 
-    from gear_rotor_sim.solver import gear_kernel
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from bench_kernel_copy import flat_source
 
-    src = open(src_path or gear_kernel.__file__, encoding="utf-8").read()
+    if src_path:
+        with open(src_path, encoding="utf-8") as fh:
+            src = fh.read()
+    else:
+        src = flat_source()
     tmp = tempfile.mkdtemp(prefix="gk_sections_")
     dst = os.path.join(tmp, "gear_kernel_sections.py")
     with open(dst, "w", encoding="utf-8") as fh:
@@ -362,11 +365,18 @@ def sections(path: str, reps: int, src_path: str) -> None:
     print(f"  {'sum':32s} {p[:8].sum() / ne:6.0f}  ({100 * p[:8].sum() / p[10]:4.1f} %)")
 
 
-def _groups() -> list[tuple[str, int, int]]:
-    """Line ranges of the parts of the step, found from the comments in gear_kernel.py."""
-    from gear_rotor_sim.solver import gear_kernel
+def _source(module: str) -> list[str]:
+    from gear_rotor_sim import solver
 
-    src = open(gear_kernel.__file__, encoding="utf-8").read().splitlines()
+    with open(os.path.join(os.path.dirname(solver.__file__), module), encoding="utf-8") as fh:
+        return fh.read().splitlines()
+
+
+def _groups() -> list[tuple[str, str, int, int]]:
+    """(part, file, first line, last line) of the parts of the step, found from the comments in the
+    kernel's sources (the event step in gear_events.py, the loop in gear_loop.py)."""
+    ev = "gear_events.py"
+    src = _source(ev)
     marks = [
         ("event step: sub-step map r', rho", "# --- sub-step map"),
         ("event step: responses of delta, delta'", "# --- responses of delta"),
@@ -384,13 +394,17 @@ def _groups() -> list[tuple[str, int, int]]:
         pos.append((name, idx + 1))
     out = []
     for (name, a), (_, b) in itertools.pairwise(pos):
-        out.append((name, a, b - 1))
+        out.append((name, ev, a, b - 1))
+    lp = "gear_loop.py"
+    src = _source(lp)
     loop0 = next(i for i, s in enumerate(src) if s.startswith("def _run_loop")) + 1
     ev_call = next(i for i, s in enumerate(src) if "status, nfl, nsb = _event_step(" in s) + 1
-    out.append(("_run_loop (regular steps, event detection, outputs)", loop0, len(src)))
-    out.append(("  of it: the event step's call site", ev_call, ev_call + 3))
+    out.append(("_run_loop (regular steps, event detection, outputs)", lp, loop0, len(src)))
+    out.append(("  of it: the event step's call site", lp, ev_call, ev_call + 3))
+    ms = "gear_mesh_solve.py"
+    src = _source(ms)
     af = next(i for i, s in enumerate(src) if s.startswith("def _affine_forces")) + 1
-    out.append(("_affine_forces (inlined)", af, af + 70))
+    out.append(("_affine_forces (inlined)", ms, af, af + 70))
     return out
 
 
@@ -418,7 +432,9 @@ def main() -> int:
     sc = sub.add_parser("sections")
     sc.add_argument("path")
     sc.add_argument("--reps", type=int, default=9)
-    sc.add_argument("--kernel", default="", help="a gear_kernel.py source (default: the installed one)")
+    sc.add_argument(
+        "--kernel", default="", help="a one-file gear kernel source (default: the installed one, flattened)"
+    )
     a = ap.parse_args()
     if a.cmd == "capture":
         capture(a.path, a.rpm, None if a.full else "auto")

@@ -78,6 +78,10 @@ FAULT_GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
+#: fault types of a gear mesh: not watched on a rig without one (``config/cwru_rig.yaml``)
+GEAR_FAULTS = ("tooth_damage", "tooth_wear", "pinion_eccentricity", "gear_eccentricity")
+
+
 def group_alarms(
     exceeded: Iterable[str], groups: Mapping[str, Sequence[str]] = FAULT_GROUPS
 ) -> dict[str, list[str]]:
@@ -141,13 +145,17 @@ class FaultAlarms:
         self.config = str(data.get("config", "paper_sun2021"))
         self.speeds = sorted({c[0] for c in th.mean})
         self.temperatures = sorted({c[1] for c in th.mean})
+        from gear_rotor_sim.fault_indicators import has_gear_mesh
+
+        gears = has_gear_mesh(self.config)
+        self.groups = {t: g for t, g in FAULT_GROUPS.items() if gears or t not in GEAR_FAULTS}
 
     def check(self, window: Any) -> tuple[dict[str, list[str]], tuple[float, float]]:
         """``({fault type: exceeded features}, operating class)`` of a window (``channels``, ``data``,
         ``sample_rate_hz``, ``speed_rpm``, ``temperature_c``); features of channels the thresholds
-        do not know are ignored."""
+        do not know are ignored; on a rig without a gear mesh the :data:`GEAR_FAULTS` are not watched."""
         from gear_rotor_sim.fault_indicators import window_features
 
         feats = window_features(window, self.config)
         c = operating_class(window.speed_rpm, window.temperature_c, self.speeds, self.temperatures)
-        return group_alarms(self.thresholds.exceeded(feats, c)), c
+        return group_alarms(self.thresholds.exceeded(feats, c), self.groups), c

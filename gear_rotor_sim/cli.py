@@ -19,6 +19,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "recover": ("gear_rotor_sim.recording.recover_cli", "complete an MCAP file cut by a crash"),
     "dataset": ("gear_rotor_sim.recording.dataset_cli", "generate a dataset of MCAP runs"),
     "calibrate": ("gear_rotor_sim.calibration.calibrate_cli", "fit the model to a measurement"),
+    "thresholds": (
+        "gear_rotor_sim.alarms_cli",
+        "learn fault-alarm thresholds from healthy records, check records",
+    ),
     "serve": ("gear_rotor_sim.live.serve", "stream live to Foxglove over WebSocket (no ROS)"),
 }
 

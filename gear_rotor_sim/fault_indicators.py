@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from gear_rotor_sim.faults.bearing import BEARING_6206, BearingGeometry
+from gear_rotor_sim.faults.bearing import BEARING_6205, BEARING_6206, BearingGeometry
 from gear_rotor_sim.indicators import amplitude_spectrum, statistics
 
 FEATURES = (
@@ -92,7 +92,7 @@ def _band_sos(fs: float) -> np.ndarray:
 def channel_features(
     x: np.ndarray,
     fs: float,
-    mesh_hz: float,
+    mesh_hz: float | None,
     shaft_hz: Sequence[float],
     bearing_shaft_hz: float,
     geometry: BearingGeometry = BEARING_6206,
@@ -105,10 +105,12 @@ def channel_features(
         One window of a housing acceleration, m/s^2.
     fs : float
         Sample rate, Hz.
-    mesh_hz : float
-        Mesh frequency, Hz.
+    mesh_hz : float or None
+        Mesh frequency, Hz. ``None``: a machine without a gear mesh (the CWRU rig): ``fm0``,
+        ``fm4`` and ``ser`` are not returned, ``na4`` is the kurtosis of ``x`` without shaft orders 1-3.
     shaft_hz : sequence of float
-        Rotation frequencies of the shafts carrying the mesh (pinion, gear), Hz.
+        Rotation frequencies of the shafts carrying the mesh (pinion, gear), Hz; without a mesh, the
+        shaft's.
     bearing_shaft_hz : float
         Rotation frequency of the shaft in the bearing under this accelerometer, Hz.
     """
@@ -118,67 +120,83 @@ def channel_features(
     amp = amp[:, 0]
     fmin = min(shaft_hz)
     hw = HALFWIDTH_ORDERS * fmin
-    harmonics = [h * mesh_hz for h in range(1, int(0.5 * fs / mesh_hz) + 1)]
-    mesh_sum = sum(_line(freqs, amp, f, hw) for f in harmonics)
+    harmonics = [h * mesh_hz for h in range(1, int(0.5 * fs / mesh_hz) + 1)] if mesh_hz else []
     shaft_lines = [k * s for s in shaft_hz for k in (1, 2, 3)]
-    sidebands = [f + sgn * s for f in harmonics for s in shaft_hz for sgn in (-1, 1)]
     residual = _remove_lines(x, fs, harmonics + shaft_lines, hw)
-    difference = _remove_lines(residual, fs, sidebands, hw)
-    a_mesh = _line(freqs, amp, mesh_hz, hw)
-    ser_sum = sum(
-        _line(freqs, amp, mesh_hz + sgn * k * s, hw) for s in shaft_hz for k in (1, 2, 3) for sgn in (-1, 1)
-    )
     env = np.abs(signal.hilbert(signal.sosfiltfilt(_band_sos(fs), x - x.mean())))
     ef, ea = amplitude_spectrum(env, fs)
     ea = ea[:, 0]
     floor = float(np.median(ea[(ef > 0) & (ef <= ENVELOPE_FLOOR_HZ)])) or 1e-300
     mult = geometry.multiples()
     env_hw = max(0.01 * bearing_shaft_hz * mult["bpfo"], 2.0 * (ef[1] - ef[0]))
-    return {
+    out = {
         "rms": rms,
         "kurtosis": kurt,
         "crest_factor": crest,
-        "fm0": float(np.ptp(x) / mesh_sum) if mesh_sum > 0 else 0.0,
-        "fm4": _kurtosis(difference),
         "na4": _kurtosis(residual),
-        "ser": ser_sum / a_mesh if a_mesh > 0 else 0.0,
         "order1": _line(freqs, amp, bearing_shaft_hz, HALFWIDTH_ORDERS * bearing_shaft_hz),
         "order2": _line(freqs, amp, 2.0 * bearing_shaft_hz, HALFWIDTH_ORDERS * bearing_shaft_hz),
         "env_bpfo": _line(ef, ea, mult["bpfo"] * bearing_shaft_hz, env_hw) / floor,
         "env_bpfi": _line(ef, ea, mult["bpfi"] * bearing_shaft_hz, env_hw) / floor,
         "env_bsf": _line(ef, ea, 2.0 * mult["bsf"] * bearing_shaft_hz, env_hw) / floor,
     }
+    if mesh_hz:
+        sidebands = [f + sgn * s for f in harmonics for s in shaft_hz for sgn in (-1, 1)]
+        difference = _remove_lines(residual, fs, sidebands, hw)
+        a_mesh = _line(freqs, amp, mesh_hz, hw)
+        ser_lines = [mesh_hz + sgn * k * s for s in shaft_hz for k in (1, 2, 3) for sgn in (-1, 1)]
+        ser_sum = sum(_line(freqs, amp, f, hw) for f in ser_lines)
+        mesh_sum = sum(_line(freqs, amp, f, hw) for f in harmonics)
+        out["fm0"] = float(np.ptp(x) / mesh_sum) if mesh_sum > 0 else 0.0
+        out["fm4"] = _kurtosis(difference)
+        out["ser"] = ser_sum / a_mesh if a_mesh > 0 else 0.0
+    return out
+
+
+#: rolling-bearing geometry by a config's bearing type name (other names: the paper gearbox's 6206)
+GEOMETRY_BY_TYPE: dict[str, BearingGeometry] = {"6205": BEARING_6205, "6206": BEARING_6206}
 
 
 @functools.lru_cache(maxsize=8)
-def _rig(config: str) -> tuple[int, tuple[float, ...], tuple[float, ...]]:
-    """Pinion teeth, |speed ratios| of the meshing shafts, |speed ratio| of each bearing's shaft."""
+def _rig(config: str) -> tuple[int, tuple[float, ...], tuple[float, ...], tuple[BearingGeometry, ...]]:
+    """Pinion teeth (0: no gear mesh), |speed ratios| of the meshing shafts, |speed ratio| of each
+    bearing's shaft, each bearing's geometry (:data:`GEOMETRY_BY_TYPE`)."""
     from gear_rotor_sim.config import load_config
     from gear_rotor_sim.system import shaft_speed_ratios
 
     cfg = load_config(config)
     ratios = np.abs(shaft_speed_ratios(cfg))
+    bearing = tuple(float(ratios[cfg.shaft_of_node(b.node0)]) for b in cfg.bearings)
+    geometry = tuple(GEOMETRY_BY_TYPE.get(b.type_name, BEARING_6206) for b in cfg.bearings)
+    if not cfg.meshes:
+        return 0, (), bearing, geometry
     m = cfg.meshes[0]
     sp = cfg.shaft_of_node(cfg.gear(m.pinion).node0)
     sg = cfg.shaft_of_node(cfg.gear(m.gear).node0)
-    bearing = tuple(float(ratios[cfg.shaft_of_node(b.node0)]) for b in cfg.bearings)
-    return int(m.pinion_teeth), (float(ratios[sp]), float(ratios[sg])), bearing
+    return int(m.pinion_teeth), (float(ratios[sp]), float(ratios[sg])), bearing, geometry
+
+
+def has_gear_mesh(config: str) -> bool:
+    """Whether the rig of ``config`` has a gear mesh (the mesh features and gear fault groups apply)."""
+    return _rig(config)[0] > 0
 
 
 def window_features(window: Any, config: str = "paper_sun2021") -> dict[str, float]:
     """Features of the housing channels of a :class:`gear_rotor_sim.datasets.Window`:
-    ``{"<channel>.<feature>": value}``."""
-    teeth, mesh_ratios, bearing_ratios = _rig(config)
+    ``{"<channel>.<feature>": value}``. On a rig without a gear mesh (``config/cwru_rig.yaml``) the
+    mesh features are left out and the shaft orders are those of the bearing's shaft."""
+    teeth, mesh_ratios, bearing_ratios, geometry = _rig(config)
     f_in = window.speed_rpm / 60.0
     shafts = [r * f_in for r in mesh_ratios]
-    mesh_hz = teeth * shafts[0]
+    mesh_hz = teeth * shafts[0] if teeth else None
     out: dict[str, float] = {}
     for j, name in enumerate(window.channels):
         if "_housing_a" not in name:
             continue
         k = int(name[len("bearing") : name.index("_")])
+        f_b = bearing_ratios[k - 1] * f_in
         feats = channel_features(
-            window.data[:, j], window.sample_rate_hz, mesh_hz, shafts, bearing_ratios[k - 1] * f_in
+            window.data[:, j], window.sample_rate_hz, mesh_hz, shafts or [f_b], f_b, geometry[k - 1]
         )
         out.update({f"{name}.{key}": v for key, v in feats.items()})
     return out

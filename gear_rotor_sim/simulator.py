@@ -3,6 +3,13 @@
 Orchestration only; the per-step work is the compiled exact Newmark map of
 :mod:`gear_rotor_sim.solver`. See docs/solver.md for the method, the dt rule and the decimation.
 
+Module layout (docs/solver.md, "Module layout"): :class:`Simulator` (this module: its parameters,
+construction, set-points, effects) is made of three bases, each in its own module and holding no
+state of its own: :class:`~gear_rotor_sim.simulator_systems.SystemCache` (systems and steppers per
+temperature quantum, the ramps), :class:`~gear_rotor_sim.simulator_stepping.Stepping` (the dt
+rule, the chunks, the raw steps) and :class:`~gear_rotor_sim.simulator_stream.Stream`
+(``advance``, ``advance_deferred``, the decimated blocks).
+
 Time grids
 ----------
 Output sample ``i`` is at ``t = i / output_rate_hz``. The integration step is
@@ -17,24 +24,35 @@ periods) ahead of the last emitted sample; new set-points apply from the integra
 
 from __future__ import annotations
 
-import time
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
-from gear_rotor_sim.blocks import SampleBlock
 from gear_rotor_sim.faults.misalignment_stream import MisalignmentStream
-from gear_rotor_sim.solver.basis_cache import cached_eigen_basis
+from gear_rotor_sim.simulator_stepping import (
+    DT_RULE_SPEED_FLOOR_RPM,
+    DT_RULE_WINDOW_S,
+    MODAL_CUTOFF_MESH_HARMONICS,
+    MODAL_CUTOFF_OUTPUT_FACTOR,
+    Stepping,
+    auto_modal_cutoff_hz,
+)
+from gear_rotor_sim.simulator_stream import PendingBlock, Stream
+from gear_rotor_sim.simulator_systems import (
+    RAMP_ASSEMBLY_QUANTUM_C,
+    RAMP_SPEED_QUANTUM_REL,
+    RAMP_TEMPERATURE_QUANTUM_C,
+    TEMPERATURE_QUANTUM_C,
+    SystemCache,
+    _default_builder,
+    _Ramp,
+)
 from gear_rotor_sim.solver.decimate import DeferredDecimator
 from gear_rotor_sim.solver.dt_rule import (
     CONTACT_LOSS_RATE_HZ,
     check_contact_loss_rate,
-    light_mesh_modes,
-    resonance_rate_hz,
-    rule_locate_events,
 )
 from gear_rotor_sim.solver.newmark import (
     MAX_STEPS_PER_MESH,
@@ -48,56 +66,35 @@ from gear_rotor_sim.solver.newmark import (
     _effect_arrays,
     available_channels,
     check_steps_per_mesh,
-    mesh_frequencies_hz,
-    mesh_frequency_hz,
     parse_channels,
-    quantize_speed_rpm,
     static_equilibrium,
 )
-from gear_rotor_sim.solver.rebase import (
-    RampSpan,
-    ThermalLoad,
-    interpolated_system,
-    ramp_linear_model,
-    ramp_nodes,
-    ramp_system,
-)
+from gear_rotor_sim.solver.rebase import RampSpan, ThermalLoad
 from gear_rotor_sim.system_data import AssembledSystem
 
-__all__ = ["Effect", "SimulationDiverged", "Simulator", "StepContext"]
+# the public names, also those of the bases' modules (their import paths from here are kept)
+__all__ = [
+    "DT_RULE_SPEED_FLOOR_RPM",
+    "DT_RULE_WINDOW_S",
+    "MAX_INTEGRATION_RATE_HZ",
+    "MAX_SPEED_RPM",
+    "MODAL_CUTOFF_MESH_HARMONICS",
+    "MODAL_CUTOFF_OUTPUT_FACTOR",
+    "RAMP_ASSEMBLY_QUANTUM_C",
+    "RAMP_SPEED_QUANTUM_REL",
+    "RAMP_TEMPERATURE_QUANTUM_C",
+    "TEMPERATURE_QUANTUM_C",
+    "Effect",
+    "PendingBlock",
+    "SimulationDiverged",
+    "Simulator",
+    "StepContext",
+    "auto_modal_cutoff_hz",
+]
 
-#: Temperature quantum of the system cache, C (a ramp rebuilds the system at these steps).
-TEMPERATURE_QUANTUM_C = 0.5
-#: Modal reduction (``modal_cutoff_hz="auto"``): the modes above the larger of this many output rates
-#: and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency are carried by their
-#: static response (residual flexibility); docs/solver.md, "Modal reduction".
-MODAL_CUTOFF_OUTPUT_FACTOR = 2.0
-#: While a speed / temperature ramp runs, the gyroscopic basis and the system are re-built on these
-#: coarser grids (docs/solver.md, "Ramps"); at a constant set-point the fine quanta above apply.
-RAMP_SPEED_QUANTUM_REL = 0.25
-RAMP_TEMPERATURE_QUANTUM_C = 5.0
-#: While the temperature ramps, exact systems are assembled on this grid (and at the ramp's ends); the
-#: basis-grid nodes between are interpolated (solver/rebase.py).
-RAMP_ASSEMBLY_QUANTUM_C = 25.0
-MODAL_CUTOFF_MESH_HARMONICS = 4.0
-
-
-def auto_modal_cutoff_hz(f_mesh_hz: float, output_rate_hz: float) -> float:
-    """The ``modal_cutoff_hz="auto"`` cut-off: the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR`` output
-    rates and ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the (highest) mesh frequency, Hz."""
-    return max(MODAL_CUTOFF_OUTPUT_FACTOR * output_rate_hz, MODAL_CUTOFF_MESH_HARMONICS * f_mesh_hz)
-
-
-#: The dt rule uses at least this speed (dt at standstill stays bounded).
-DT_RULE_SPEED_FLOOR_RPM = 60.0
 #: Highest accepted integration rate; an output rate above it is refused.
 MAX_INTEGRATION_RATE_HZ = 2.0e7
 MAX_SPEED_RPM = 1.0e5
-_MAX_CHUNK_STEPS = 65536
-#: The dt rule decides on fixed instants of this spacing (whatever the chunking, so that the stream
-#: stays independent of how ``advance`` is called): contact-loss setting on if the teeth separated in
-#: the window just ended, off after a whole window in continuous contact, s.
-DT_RULE_WINDOW_S = 0.1
 
 
 class Effect(Protocol):
@@ -116,77 +113,7 @@ class Effect(Protocol):
     def modify_config(self, cfg: Any) -> Any: ...
 
 
-@dataclass
-class _Ramp:
-    """value(t) moves from ``v0`` at ``t0`` toward ``target`` at ``rate`` per second."""
-
-    t0: float
-    v0: float
-    target: float
-    rate: float
-
-    def value(self, t: np.ndarray | float) -> np.ndarray:
-        dt = np.asarray(t, float) - self.t0
-        d = self.target - self.v0
-        if d == 0.0 or self.rate == np.inf:
-            return np.full(np.shape(dt), self.target) if np.ndim(dt) else np.asarray(self.target)
-        tr = abs(d) / self.rate
-        return np.where(dt >= tr, self.target, self.v0 + np.sign(d) * self.rate * dt)
-
-    def integral(self, t: np.ndarray) -> np.ndarray:
-        """Integral of value from t0 to t."""
-        dt = np.asarray(t, float) - self.t0
-        d = self.target - self.v0
-        if d == 0.0 or self.rate == np.inf:
-            return self.target * dt
-        tr = abs(d) / self.rate
-        a = np.sign(d) * self.rate
-        ramp = self.v0 * np.minimum(dt, tr) + 0.5 * a * np.minimum(dt, tr) ** 2
-        return ramp + self.target * np.maximum(dt - tr, 0.0)
-
-    def time_to_reach(self, level: float) -> float:
-        """Time after t0 at which the value crosses ``level`` (inf if never)."""
-        d = self.target - self.v0
-        if d == 0.0 or self.rate == np.inf:
-            return np.inf
-        x = (level - self.v0) / (np.sign(d) * self.rate)
-        if x < 0 or (level - self.v0) * (self.target - level) < 0:
-            return np.inf
-        return float(x)
-
-
-def _default_builder(cfg: Any, temperature_c: float) -> AssembledSystem:
-    from gear_rotor_sim.system import GearRotorSystem  # assembly module (physics core)
-
-    return GearRotorSystem.from_config(cfg, temperature_c)
-
-
-class PendingBlock:
-    """A block integrated by :meth:`Simulator.advance_deferred` whose samples are not filtered yet.
-
-    ``first_index``, ``n_samples`` and ``t0`` are known at once; :meth:`result` runs the decimation
-    (once; later calls return the same block).
-    """
-
-    __slots__ = ("_block", "_sim", "first_index", "n_samples", "t0")
-
-    def __init__(self, sim: Simulator, first_index: int, n_samples: int) -> None:
-        self._sim: Simulator | None = sim
-        self.first_index = first_index
-        self.n_samples = n_samples
-        self.t0 = first_index / sim.output_rate_hz
-        self._block: SampleBlock | None = None
-
-    def result(self) -> SampleBlock:
-        """The :class:`SampleBlock` (what :meth:`Simulator.advance` returns)."""
-        if self._block is None:
-            assert self._sim is not None
-            self._block = self._sim._output_block(self.first_index, self.n_samples)
-            self._sim = None
-        return self._block
-
-
-class Simulator:
+class Simulator(SystemCache, Stepping, Stream):
     """Streaming nonlinear simulator of the gear-rotor-bearing system (Eq 39).
 
     Parameters
@@ -427,202 +354,11 @@ class Simulator:
         t = getattr(cfg, "reference_temperature_c", 25.0) if temperature_c is None else temperature_c
         return available_channels(builder(cfg, float(t)))
 
-    @staticmethod
-    def _tq(temperature_c: float) -> float:
-        return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
-
-    def _thermal_load_model(self) -> ThermalLoad | None:
-        """The thermal node load of the default assembly (None for a custom builder)."""
-        if self._builder is not _default_builder:
-            return None
-        if self._thermal is None:
-            self._thermal = ThermalLoad(self.cfg)
-        return self._thermal
-
-    def _thermal_load(self, tq: float) -> np.ndarray | None:
-        """Exact thermal node load for the default assembly (None: interpolated, custom builders)."""
-        model = self._thermal_load_model()
-        return None if model is None else model(tq)
-
-    def _ramp_range(self) -> tuple[float, float]:
-        return tuple(sorted((self._tq(self._temp.v0), self._tq(self._temp.target))))  # type: ignore[return-value]
-
-    def _node(self, tq: float) -> tuple[AssembledSystem, NewmarkStepper]:
-        """Node of the ramp's basis grid: exact on the assembly grid and at the ramp's ends, else
-        interpolated between them (solver/rebase.py); its own eigenbases."""
-        lo, hi = self._ramp_range()
-        a, b = (self._tq(v) for v in ramp_nodes(tq, RAMP_ASSEMBLY_QUANTUM_C, lo, hi))
-        if tq in (a, b):
-            return self._system(tq)
-        hit = self._nodes.get(tq)
-        if hit is None:
-            system = interpolated_system(self._system(a)[0], self._system(b)[0], tq, self._thermal_load(tq))
-            hit = (system, self._stepper_for(system))
-            self._nodes[tq] = hit
-            if len(self._nodes) > 4:
-                self._nodes.popitem(last=False)
-        else:
-            self._nodes.move_to_end(tq)
-        return hit
-
-    def _system_at(self, tq: float, ramping: bool, speed_rpm: float) -> tuple[NewmarkStepper, bool]:
-        """Stepper at the fine quantum ``tq`` and whether its modal state carries on (else the state is
-        loaded into it): the exact assembly at a constant set-point; while the temperature ramps, ramp
-        systems on the nearest basis-grid node's linear part and eigenbases (solver/rebase.py): with
-        the default assembly one :class:`RampSpan` per node whose kernel arrays are corrected in place
-        per quantum, else one new stepper per quantum."""
-        q = self.ramp_temperature_quantum_c
-        if not ramping or q <= TEMPERATURE_QUANTUM_C:
-            return self._system(tq)[1], False
-        lo, hi = self._ramp_range()
-        a, b = (self._tq(v) for v in ramp_nodes(tq, q, lo, hi))
-        near_t = a if tq - a <= b - tq else b
-        near_sys, near = self._node(near_t)
-        sys_a, sys_b = self._node(a)[0], self._node(b)[0]
-        system = ramp_system(near_sys, sys_a, sys_b, tq, self._thermal_load(tq))
-        thermal = self._thermal_load_model()
-        if thermal is None or thermal.units is None:  # one stepper per quantum
-            if tq == near_t:
-                return near, False
-            stepper = self._stepper_for(system, ramp_linear_model(near.lin, system, self._run_effects))
-            stepper.basis_source = near.basis  # the same state matrix: the node's bases (and its cache)
-            return stepper, False
-        span = self._spans.get(near_t)
-        if span is None:
-            below, above = (
-                ramp_nodes(near_t - 0.5 * q, q, lo, hi)[0],
-                ramp_nodes(near_t + 0.5 * q, q, lo, hi)[1],
-            )
-            lower = self._node(self._tq(below))[0] if self._tq(below) < near_t else None
-            upper = self._node(self._tq(above))[0] if self._tq(above) > near_t else None
-            span = RampSpan((near_sys, near), lower, upper, thermal, self._stepper_for, self._run_effects)
-            self._spans[near_t] = span
-            if len(self._spans) > 4:
-                self._spans.popitem(last=False)
-        omega = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
-        stepper, carry = span.retarget(
-            system, omega, self.dt, self._cutoff_hz(near_sys, speed_rpm), self._state, self._exact
-        )
-        return stepper, carry and stepper is self._stepper
-
-    def _stepper_for(self, system: AssembledSystem, lin: Any = None) -> NewmarkStepper:
-        """A stepper whose eigenbases come from the disk cache (solver/basis_cache.py)."""
-        stepper = NewmarkStepper(
-            system,
-            self.specs,
-            self._run_effects,
-            self._force_dense,
-            locate_events=self.locate_events,
-            lin=lin,
-        )
-        dense = self._force_dense
-        stepper.basis_source = lambda omega: cached_eigen_basis(stepper.lin, omega, dense)
-        stepper.chunk_buffers = self._chunk_buffers  # one set for all steppers: one runs at a time
-        stepper.event_average = self.event_average
-        stepper.average_jumps = self.average_table_jumps
-        return stepper
-
-    def _speed_quantum(self, speed_rpm: float) -> float:
-        """Relative speed quantum of the basis in use: coarse while the speed ramps."""
-        return SPEED_QUANTUM_REL if speed_rpm == self._speed.target else self.ramp_speed_quantum_rel
-
-    def _sq(self, speed_rpm: float) -> float:
-        return quantize_speed_rpm(speed_rpm, self._speed_quantum(speed_rpm))
-
-    def _build(self, tq: float) -> AssembledSystem:
-        try:
-            return self._builder(self.cfg, tq)
-        except ValueError as exc:
-            msg = str(exc)
-            raise ValueError(
-                msg if msg.startswith("temperature_c") else f"temperature_c: {tq}: {msg}"
-            ) from exc
-
-    def _system(self, tq: float) -> tuple[AssembledSystem, NewmarkStepper]:
-        hit = self._systems.get(tq)
-        if hit is None:
-            system = self._build(tq)
-            hit = (
-                system,
-                self._stepper_for(system),
-            )
-            self._systems[tq] = hit
-            if len(self._systems) > 8:
-                self._systems.popitem(last=False)
-        else:
-            self._systems.move_to_end(tq)
-        return hit
-
-    def _locate_now(self) -> bool:
-        if self._locate_opt is not None:
-            return self._locate_opt
-        return rule_locate_events(self._spm_now, self._loss_mode)
-
-    def _k_required(self, s0: float, s1: float, system: AssembledSystem) -> int:
-        f = mesh_frequency_hz(system, max(s0, s1, DT_RULE_SPEED_FLOOR_RPM))
-        if f <= 0:  # no mesh: resolve the first torsional/bending modes instead, at least 4x
-            return 4
-        rate = self.steps_per_mesh * f
-        if self.contact_loss_rate_hz is not None:  # the dt rule's contact-loss and resonance parts
-            if self._loss_mode:
-                rate = max(rate, self.contact_loss_rate_hz)
-            res = 0.0
-            if self._exact_opt is not True:
-                stepper = self._stepper
-                light = light_mesh_modes(stepper.lin, stepper.basis(self._sq(s0) * 2.0 * np.pi / 60.0))
-                for sp in (s0, s1):  # every mesh's harmonics (a light mode near any of them)
-                    for fm in mesh_frequencies_hz(system, max(sp, DT_RULE_SPEED_FLOOR_RPM)):
-                        res = max(res, resonance_rate_hz(fm, light))
-            if self._exact_opt is None:  # the exact map instead of resolving the light mode
-                self._exact = res > rate
-            if not self._exact:
-                rate = max(rate, res)
-            rate = min(rate, MAX_STEPS_PER_MESH * f)
-        return max(1, int(np.ceil(rate / self.output_rate_hz * (1 - 1e-12))))
-
-    @property
-    def _spm_now(self) -> float:
-        """Integration steps per mesh period at the current speed."""
-        system = self._stepper.system
-        f = mesh_frequency_hz(system, max(self.speed_rpm, DT_RULE_SPEED_FLOOR_RPM))
-        return self._k * self.output_rate_hz / f if f > 0 else float("inf")
-
-    @property
-    def dt(self) -> float:
-        return 1.0 / (self._k * self.output_rate_hz)
-
-    def _cutoff_hz(self, system: AssembledSystem, speed_rpm: float) -> float | None:
-        """Modal cut-off of the reduced model at a speed (None: full model).
-
-        ``"auto"``: the larger of ``MODAL_CUTOFF_OUTPUT_FACTOR`` output rates and
-        ``MODAL_CUTOFF_MESH_HARMONICS`` harmonics of the highest mesh frequency at the quantised speed
-        (docs/solver.md, "Modal reduction": the RMS DTE within 0.005 % of the full model on the paper
-        gearbox). A number: that cut-off.
-        """
-        cut = self.modal_cutoff_hz
-        if cut is None:
-            return None
-        if cut != "auto":
-            return float(cut)
-        f_mesh = mesh_frequency_hz(system, max(self._sq(speed_rpm), DT_RULE_SPEED_FLOOR_RPM))
-        return auto_modal_cutoff_hz(f_mesh, self.output_rate_hz)
-
-    def _activate(self, stepper: NewmarkStepper, st: SolverState, speed_rpm: float) -> None:
-        self._stepper = stepper
-        stepper.modal_cutoff_hz = self._cutoff_hz(stepper.system, speed_rpm)
-        stepper.exact_map = self._exact
-        self._omega_q = self._sq(speed_rpm) * 2.0 * np.pi / 60.0
-        stepper.set_operating_point(self._omega_q, self.dt, st)
-
     # ------------------------------------------------------------------------------- public API
     @property
     def time_s(self) -> float:
         """Time of the next output sample, s (the end of the stream so far)."""
         return self._n_out / self.output_rate_hz
-
-    @property
-    def _raw_time(self) -> float:
-        return self._seg_t0 + self._raw * self.dt
 
     @property
     def speed_rpm(self) -> float:
@@ -696,194 +432,6 @@ class Simulator:
             st.ampl = np.zeros(0)
         self._activate(stepper, st, float(self._speed.value(t)))
 
-    def advance(self, duration: float) -> SampleBlock:
-        """Integrate and return the output samples with times in [time_s, time_s + duration)."""
-        return self.advance_deferred(duration).result()
-
-    def advance_deferred(self, duration: float) -> PendingBlock:
-        """:meth:`advance` with the output filtering left to whoever calls ``result()``.
-
-        Integrates now (the simulator is at ``time_s + duration`` on return) and returns a
-        :class:`PendingBlock` that knows the block's first sample index and length; its ``result()``
-        runs the anti-aliasing decimation of the raw samples and returns the :class:`SampleBlock`
-        that :meth:`advance` would have returned, bit for bit. Pending blocks must be resolved in the
-        order they were made (a ValueError otherwise); ``result()`` may run in another thread,
-        concurrently with the next ``advance_deferred`` (the simulator node does so: the FIR then runs
-        on the other core while the next chunk is integrated). ``last_chunk_stats["wall_s"]`` counts
-        the integration only.
-        """
-        if not (np.isfinite(duration) and duration >= 0):
-            raise ValueError(f"duration: {duration!r} must be finite and >= 0")
-        wall0 = time.perf_counter()
-        n_target = int(np.ceil((self.time_s + duration) * self.output_rate_hz - 1e-9))
-        n_emit = n_target - self._n_out
-        got = 0
-        steps = n_loss = n_back = 0
-        try:
-            while got < n_emit:
-                need_raw = (n_target - 1) * 1.0 / self.output_rate_hz  # last output time
-                dt = self.dt
-                t_raw = self._raw_time
-                n_steps = int(np.ceil((need_raw - t_raw) / dt - 1e-9)) + self._dec.delay
-                n_steps = max(n_steps, 1)
-                n_steps = self._limit_chunk(n_steps, t_raw, dt)
-                n_y, loss, back = self._run_steps(n_steps)
-                steps += n_steps
-                n_loss += loss
-                n_back += back
-                if n_y:
-                    take = min(n_y, n_emit - got)
-                    got += take
-                    self._pending_n = n_y - take
-                self._maybe_regrid()
-        except BaseException:
-            self._pending_n += got  # completed outputs stay queued for the next block, in order
-            raise
-        first = self._n_out
-        self._n_out += got
-        self.last_chunk_stats = {
-            "contact_loss_fraction": n_loss / max(steps, 1),
-            "back_contact_fraction": n_back / max(steps, 1),
-            "steps": float(steps),
-            "wall_s": time.perf_counter() - wall0,
-            "dt_s": self.dt,
-            "decimation": float(self._k),
-            "located": float(self.locate_events),
-            "exact_modal_map": float(self._exact),
-            "contact_loss_rule": float(self._loss_mode),
-            "mesh_solve_failures": float(self._stepper.n_mesh_fail),
-        }
-        return PendingBlock(self, first, got)
-
-    def _output_block(self, first: int, n: int) -> SampleBlock:
-        """The decimated samples ``first .. first + n - 1`` as a block (see :class:`PendingBlock`)."""
-        data = self._dec.take(n, first)
-        nch = len(self.channels)
-        return SampleBlock(
-            first / self.output_rate_hz,
-            self.output_rate_hz,
-            self.channels,
-            self.units,
-            np.ascontiguousarray(data[:, :nch]),
-            first,
-            data[:, nch].copy(),
-            data[:, nch + 1].copy(),
-        )
-
-    # ------------------------------------------------------------------------------- internals
-    _pending_n: int = 0  # outputs completed by the last raw chunk beyond what its block took
-
-    def _limit_chunk(self, n_steps: int, t_raw: float, dt: float) -> int:
-        n = min(n_steps, _MAX_CHUNK_STEPS)
-        # stop at the next quantum change of speed (gyroscopic basis) or temperature (system rebuild)
-        s_now = float(self._speed.value(t_raw))
-        if s_now != self._speed.target:
-            # chunks end at every fine quantum (the dt rule decides there, as without the ramp grid);
-            # the basis changes only where the ramp grid's value does (_run_steps)
-            sq = quantize_speed_rpm(s_now)
-            up = self._speed.target > s_now
-            step = np.sqrt(1.0 + SPEED_QUANTUM_REL)  # half a quantum on the log grid
-            level = (sq * step if up else sq / step) if sq > 0 else (0.5 if up else -1.0)
-            # the ramp's end is a crossing too (the fine grid takes over there)
-            level = min(level, self._speed.target) if up else max(level, self._speed.target)
-            tt = self._speed.time_to_reach(level) + self._speed.t0 - t_raw
-            if np.isfinite(tt):
-                n = min(n, max(1, int(np.ceil(tt / dt))))
-        tc = float(self._temp.value(t_raw))
-        if tc != self._temp.target:
-            up = self._temp.target > tc
-            level = self._tq(tc) + (0.5 if up else -0.5) * TEMPERATURE_QUANTUM_C
-            # the ramp's end is a crossing too (the fine grid takes over there)
-            level = min(level, self._temp.target) if up else max(level, self._temp.target)
-            tt = self._temp.time_to_reach(level) + self._temp.t0 - t_raw
-            if np.isfinite(tt):
-                n = min(n, max(1, int(np.ceil(tt / dt))))
-        # chunks end on the output grid so that the decimation factor can change there
-        k = self._k
-        end = self._raw + n
-        end = -(-end // k) * k
-        if self.contact_loss_rate_hz is not None or self._mis.active:  # and at the next decision instant
-            w = self._rule_window
-            nxt = ((self._seg_out0 + self._raw // k) // w + 1) * w
-            end = min(end, (nxt - self._seg_out0) * k)
-        return end - self._raw
-
-    def _run_steps(self, n: int) -> tuple[int, int, int]:
-        """Integrate ``n`` raw steps; return the outputs now complete (with those left over from the
-        previous call), the steps with contact loss and those with back-side contact."""
-        t_raw = self._raw_time
-        # operating point at the chunk start (quantised)
-        s_now = float(self._speed.value(t_raw))
-        temp_now = float(self._temp.value(t_raw))
-        tq = self._tq(temp_now)
-        key = (tq, temp_now != self._temp.target)
-        if key != self._sys_key:
-            stepper, carry = self._system_at(*key, s_now)
-            self._tq_cur = tq
-            self._sys_key = key
-            if not carry:
-                self._activate(stepper, self._state, s_now)
-        else:
-            oq = self._sq(s_now) * 2.0 * np.pi / 60.0
-            if (
-                oq != self._omega_q
-                or self._stepper.map is None
-                or self._stepper.map.dt != self.dt
-                or self._stepper.exact_map != self._exact
-            ):
-                self._activate(self._stepper, self._state, s_now)
-        dt = self.dt
-        # new steps are raw+1 .. raw+n (raw is the carried state), plus one neighbour on each side
-        j = np.arange(self._raw, self._raw + n + 2, dtype=float)
-        t = self._seg_t0 + j * dt
-        speed = self._speed.value(t) * (2.0 * np.pi / 60.0)
-        # angle anchored at the ramp start: the same values whatever the chunking
-        angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
-        self.locate_events = self._locate_now()
-        self._stepper.locate_events = self.locate_events
-        ch, _, _, fm, states, _ = self._stepper.run(t, angle, speed, self._state)
-        if self._mis.active:
-            self._mis.push(angle[1:-1], fm)
-        self._raw += n
-        self._update_dt_rule(states)
-        self._update_misalignment()
-        # the channels, speed and temperature go side by side straight into the decimator's store; a
-        # set-point held over the whole chunk as one value (the decimator returns it exactly where it
-        # fills an output's window, without filtering it)
-        sp = self._speed
-        speed_col = sp.target if float(sp.value(t[1])) == sp.target else speed[1:-1] * 60.0 / (2.0 * np.pi)
-        tr = self._temp
-        temp_col = tr.target if float(tr.value(t[1])) == tr.target else tr.value(t[1:-1])
-        n_y = self._dec.push(ch, speed_col, temp_col) + self._pending_n
-        self._pending_n = 0
-        loss = back = 0
-        if states.shape[1]:
-            loss = int(np.count_nonzero((states == 0).any(axis=1)))  # any mesh
-            back = int(np.count_nonzero((states < 0).any(axis=1)))
-        return n_y, loss, back
-
-    def _update_dt_rule(self, states: np.ndarray) -> None:
-        """Contact-loss setting at the window ends: on after a separation, off after none."""
-        if self.contact_loss_rate_hz is None or not states.shape[1]:
-            return
-        if not self._separated and states.shape[0] and states.min() < 2:  # any mesh: free flight, back side
-            self._separated = True  # or pinned at +-b*
-        if self._raw % self._k or (self._seg_out0 + self._raw // self._k) % self._rule_window:
-            return
-        self._loss_mode = self._separated or self.one_setting
-        self._separated = False
-        self.locate_events = self._locate_now()
-
-    def _update_misalignment(self) -> None:
-        """At the fixed update instants (every ``DT_RULE_WINDOW_S`` on the output grid), the tilted
-        wheels' mesh-force orders from the running synchronous average of the stream's mesh force
-        (faults/misalignment_stream.py)."""
-        if not self._mis.active:
-            return
-        if self._raw % self._k or (self._seg_out0 + self._raw // self._k) % self._rule_window:
-            return
-        self._mis.update(self.speed_rpm, self.output_rate_hz, self._rule_window / self.output_rate_hz)
-
     @property
     def mesh_force_orders(self) -> dict[str, tuple[complex, ...]]:
         """Order coefficients of the mesh force (N) each tilted gear misalignment of the effects uses
@@ -892,27 +440,6 @@ class Simulator:
         force ``F0`` (before the first update, 0.1 s). Effects given with ``mesh_force_orders`` keep
         theirs and are not listed."""
         return self._mis.orders()
-
-    def _maybe_regrid(self) -> None:
-        if self._raw % self._k:
-            return
-        t = self._raw_time
-        system = self._stepper.system
-        s_now = float(self._speed.value(t))
-        s_end = float(self._speed.value(t + 0.05))
-        k_req = self._k_required(s_now, s_end, system)
-        if k_req > self._k or k_req <= 0.75 * self._k:
-            self._dec.regrid(k_req, self._raw)
-            self._seg_out0 += self._raw // self._k
-            self._seg_t0 = t
-            self._raw = 0
-            self._k = k_req
-            self._activate(self._stepper, self._state, s_now)
-        elif self._raw > 1 << 40:
-            self._dec.rebase(self._raw)
-            self._seg_out0 += self._raw // self._k
-            self._seg_t0 = t
-            self._raw = 0
 
 
 def _modified_config(cfg: Any, effects: Sequence[Effect]) -> Any:
