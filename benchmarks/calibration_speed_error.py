@@ -11,7 +11,8 @@ is, the behaviour before session 17).
 Usage::
 
     python benchmarks/calibration_speed_error.py [--out DIR] [--cases SUBSTR ...] [--errors PCT ...]
-        [--no-baseline | --only-baseline] [--before] [--duration-s S]
+        [--no-baseline | --only-baseline] [--before | --only-before] [--references TAG ...] [--exact]
+        [--duration-s S]
 
 Prints one Markdown table per variant: truth, declared and measured speed (the ``operating_speed`` entry
 of ``baseline_updates``; "=" when the declared speed was kept), the first effect, its main parameter
@@ -55,7 +56,19 @@ RATTLE: list[tuple[str, str | None]] = [("healthy", None), ("tooth_pinion", ci.F
 RATTLE_ERROR_PCT = 1.0
 #: healthy references for --baseline: (tag, declared rpm, true error %)
 REFERENCES = [("ref2000_exact", 2000.0, 0.0), ("ref2000_off1", 2000.0, 1.0)]
+#: seeds: the +-1 % records 501 + 2 x (fault index) (+1 % first), the rattle ones 513, 514 (the first
+#: run's), the other errors 601 + 10 x (fault index) + their index in OTHER_ERRORS_PCT: a record's seed
+#: does not depend on which errors a run asks for
 SEED0 = 501
+OTHER_ERRORS_PCT = [0.3, -0.3, 3.0, -3.0]
+
+
+def _seed(fault_index: int, error_pct: float) -> int:
+    if abs(error_pct) == 1.0:
+        return SEED0 + 2 * fault_index + (0 if error_pct > 0 else 1)
+    if error_pct not in OTHER_ERRORS_PCT:
+        raise ValueError(f"speed error {error_pct} % not in +-1 or {OTHER_ERRORS_PCT}")
+    return 601 + 10 * fault_index + OTHER_ERRORS_PCT.index(error_pct)
 
 
 @dataclass(frozen=True)
@@ -65,28 +78,33 @@ class SpeedCase:
     error_pct: float
     fault: str | None
     seed: int
+    #: control: the sidecar declares the true speed (the same record's seed)
+    exact: bool = False
 
     @property
     def true_rpm(self) -> float:
-        return self.declared_rpm * (1.0 + self.error_pct / 100.0)
+        return round(self.declared_rpm * (1.0 + self.error_pct / 100.0), 6)
+
+    @property
+    def written_rpm(self) -> float:
+        """The speed the sidecar declares."""
+        return self.true_rpm if self.exact else self.declared_rpm
 
     def table_case(self) -> ci.Case:
         """The table's case type for ``ci.judge``."""
         return ci.Case(self.tag, self.true_rpm, 25.0, self.fault, self.seed)
 
 
-def cases(errors: list[float]) -> list[SpeedCase]:
+def cases(errors: list[float], exact: bool = False) -> list[SpeedCase]:
+    """The records; ``exact``: the same records declared at their true speed (tags ``..._exact``)."""
     out: list[SpeedCase] = []
-    seed = SEED0
-    for name, fault in FAULTS_3000:
+    sfx = "_exact" if exact else ""
+    for fi, (name, fault) in enumerate(FAULTS_3000):
         for e in errors:
-            out.append(SpeedCase(f"c3000_{name}_{e:+g}pct", CONTACT_RPM, e, fault, seed))
-            seed += 1
-    for name, fault in RATTLE:
-        out.append(
-            SpeedCase(f"r8000_{name}_{RATTLE_ERROR_PCT:+g}pct", RATTLE_RPM, RATTLE_ERROR_PCT, fault, seed)
-        )
-        seed += 1
+            out.append(SpeedCase(f"c3000_{name}_{e:+g}pct{sfx}", CONTACT_RPM, e, fault, _seed(fi, e), exact))
+    for ri, (name, fault) in enumerate(RATTLE):
+        tag = f"r8000_{name}_{RATTLE_ERROR_PCT:+g}pct{sfx}"
+        out.append(SpeedCase(tag, RATTLE_RPM, RATTLE_ERROR_PCT, fault, 513 + ri, exact))
     return out
 
 
@@ -101,7 +119,7 @@ def make(case: SpeedCase, out: Path, duration_s: float) -> Path:
     write_record(csv, rec)
     side = csv.with_suffix(".yaml")
     d = yaml.safe_load(side.read_text())
-    d["operating_point"]["speed_rpm"] = float(case.declared_rpm)
+    d["operating_point"]["speed_rpm"] = float(case.written_rpm)
     side.write_text(yaml.safe_dump(d, sort_keys=False))
     return csv
 
@@ -127,7 +145,7 @@ def row(case: SpeedCase, res: dict[str, Any], variant: str) -> dict[str, Any]:
     r.update(
         variant=variant,
         true_rpm=case.true_rpm,
-        declared_rpm=case.declared_rpm,
+        declared_rpm=case.written_rpm,
         measured_rpm=meas,
         sigma_rpm=sig,
         speed_error_before=e_decl,
@@ -195,6 +213,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variants")
     ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variants")
     ap.add_argument("--before", action="store_true", help="also calibrate with --no-speed-check")
+    ap.add_argument("--only-before", action="store_true", help="only the --no-speed-check calibrations")
+    ap.add_argument(
+        "--exact",
+        action="store_true",
+        help="control: the same records with the sidecar declaring the true speed",
+    )
     ap.add_argument(
         "--references",
         nargs="*",
@@ -204,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    todo = cases(ERRORS_PCT if args.errors is None else args.errors)
+    todo = cases(ERRORS_PCT if args.errors is None else args.errors, args.exact)
     if args.cases:
         todo = [c for c in todo if any(s in c.tag for s in args.cases)]
     if not todo:
@@ -214,7 +238,7 @@ def main(argv: list[str] | None = None) -> int:
     load0 = os.getloadavg()[0]
     for c in todo:
         make(c, out, args.duration_s)
-    checks = [True, False] if args.before else [True]
+    checks = [False] if args.only_before else [True, False] if args.before else [True]
     variants: list[tuple[str, Path | None, bool]] = []
     for check in checks:
         suffix = "" if check else ", declared speed (--no-speed-check)"
