@@ -131,8 +131,8 @@ def make(case: Case, out: Path, duration_s: float) -> Path:
     return write_record(out / f"{case.tag}.csv", rec)
 
 
-def calibrate(csv: Path, baseline: Path | None) -> dict[str, Any]:
-    cmd = [*calibrate_command(), "calibrate", str(csv), "--json"]
+def calibrate(csv: Path, baseline: Path | None, extra: tuple[str, ...] = ()) -> dict[str, Any]:
+    cmd = [*calibrate_command(), "calibrate", str(csv), "--json", *extra]
     if baseline is not None:
         cmd += ["--baseline", str(baseline)]
     t = time.perf_counter()

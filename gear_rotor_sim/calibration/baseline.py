@@ -245,7 +245,8 @@ def fit_reference_baseline(
             f"the reference record itself shows {found}: not carried (an operating condition of that "
             "record); its baseline was fitted with it"
         )
-    op = reference.operating_point
+    op = cal.m.operating_point  # the measured speed where the declared one was corrected (speed_check.py)
+    notes += [i for i in cal.m.issues if i.startswith("operating_point.speed_rpm")]
     return ReferenceBaseline(
         effects=tuple(e for e in r.baseline_effects if isinstance(e, BASELINE_TYPES)),
         carrier_tolerance=float(r.model_form.get("carrier_tolerance", st.tolerance)),

@@ -84,6 +84,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--max-effects", type=int, default=None, help="most effects added (default 3)")
     parser.add_argument(
+        "--no-speed-check",
+        action="store_true",
+        help="use the declared speed as is (default: it is checked against the record's mesh lines and the "
+        "measured one is used where they disagree, reported as operating_speed; docs/calibration.md Sec. 2)",
+    )
+    parser.add_argument(
         "--steps-per-mesh",
         type=int,
         default=None,
@@ -192,13 +198,21 @@ def run(args: argparse.Namespace) -> int:
                     if args.steps_per_mesh is None
                     else args.steps_per_mesh,
                     log=log,
+                    speed_check=not args.no_speed_check,
                 )
                 for note in rb.notes:
                     log(f"baseline: {note}")
                 if args.save_baseline:
                     log(f"baseline: saved to {rb.save(args.save_baseline)}")
                 ref = rb.calibrator_kwargs()
-            cal = Calibrator(m, settings=settings, steps_per_mesh=args.steps_per_mesh, log=log, **ref)
+            cal = Calibrator(
+                m,
+                settings=settings,
+                steps_per_mesh=args.steps_per_mesh,
+                log=log,
+                speed_check=not args.no_speed_check,
+                **ref,
+            )
         if args.tolerance is not None:
             cal.settings.tolerance = args.tolerance
         if args.max_effects is not None:
@@ -226,7 +240,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{path.name}: {result.conclusion}")
         print(f"baseline ({result.baseline_source}):")
         for b in result.baseline_updates:
-            if b.effect is not None:
+            if b.effect is not None or b.name == "operating_speed":
                 ps = ", ".join(f"{k}={_fmt(v)}" for k, v in b.parameters.items())
                 print(f"  {b.label}: {ps}")
         print(

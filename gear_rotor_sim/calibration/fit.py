@@ -94,6 +94,7 @@ from gear_rotor_sim.calibration.residual import (
     time_and_spectrum_errors,
 )
 from gear_rotor_sim.calibration.search_rounds import examine_round
+from gear_rotor_sim.calibration.speed_check import check_operating_speed, correction_errors, speed_entry
 from gear_rotor_sim.calibration.synthetic import synthetic_measurement
 from gear_rotor_sim.faults import (
     BASELINE_TYPES,
@@ -166,6 +167,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         Integration steps per mesh period of every model run. Default: chosen from the healthy
         model's convergence at the record's operating point (``model_steps.py``; from 32, from 64
         against a held ``baseline``), reported as ``model_steps`` in the result.
+    speed_check : bool
+        Read the input speed from the record's mesh lines and calibrate at it where it disagrees with
+        the declared one (``speed_check.py``; default True; rigs without a mesh are not checked).
     """
 
     def __init__(
@@ -188,6 +192,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         baseline_reference: dict[str, Any] | None = None,
         rattle_rules: bool = True,
         reference_numerics: bool | None = None,
+        speed_check: bool = True,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -195,6 +200,11 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
             cfg = load_config(measurement.gearbox)
             if measurement.bearing_type:
                 cfg = cfg.with_bearing_type(measurement.bearing_type)
+        # the declared speed against the record's mesh lines; the measured one where they disagree
+        # (speed_check.py, docs/calibration.md Sec. 2 "Speed check")
+        self.speed = None
+        if speed_check:
+            measurement, self.speed = check_operating_speed(measurement, cfg)
         self.m = measurement
         self.rattle_rules = rattle_rules
         #: the exact order integral, the velocity derivative and the envelope-band fallback where the
@@ -276,6 +286,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
     def run(self) -> CalibrationResult:
         self._feat_correction: ModelFeatures | None = None
         base_out = check_conventions(self)  # _setup and the sensor conventions
+        speed_errors = correction_errors(self)  # None unless the speed was corrected (speed_check.py)
         self._at_rattle = False
         if self.rattle_rules:
             # where the teeth separate: honest order uncertainties (features_rattle.py)
@@ -532,6 +543,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         if "order" in self.cmp.families and self.settings.fit_gain:
             baseline_updates = [b for b in baseline_updates if b.name != "sensor_transfer"]
             baseline_updates.append(self._sensor_entry(cur_score))
+        if speed_errors is not None:
+            baseline_updates.insert(0, speed_entry(self.speed, *speed_errors))
         return CalibrationResult(
             self.m,
             found,

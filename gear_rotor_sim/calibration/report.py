@@ -119,10 +119,13 @@ def write_report(
     figs = _figures(result, out, stem) if figures else []
     m = result.measurement
     op = m.operating_point
+    speed = next((b for b in result.baseline_updates if b.name == "operating_speed"), None)
+    declared = "declared" if speed is None else "speed measured from the record's mesh lines, declared "
+    declared += "" if speed is None else f"{speed.parameters['declared_speed_rpm']:g} rpm"
     lines = [
         f"# Calibration report: `{Path(m.source).name}`",
         "",
-        f"- Operating point (declared): {op.speed_rpm:g} rpm, {op.temperature_c:g} degC"
+        f"- Operating point ({declared}): {op.speed_rpm:g} rpm, {op.temperature_c:g} degC"
         + (f", output torque {op.output_torque_nm:g} N m" if op.output_torque_nm is not None else ""),
         f"- Model: `{m.gearbox}`; {m.n_samples} samples at {m.sample_rate_hz:g} Hz ({m.duration_s:.3g} s); "
         f"channels {', '.join(result.comparison.names)}",
