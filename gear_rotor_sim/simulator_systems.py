@@ -81,6 +81,23 @@ class _Ramp:
         return float(x)
 
 
+def _lru(
+    cache: OrderedDict, key: float, build: Any, stepper_for: Any, size: int
+) -> tuple[AssembledSystem, NewmarkStepper]:
+    """``cache[key]`` (system, stepper), built by ``build()`` and ``stepper_for(system)`` when absent;
+    least recently used first out beyond ``size`` entries."""
+    hit = cache.get(key)
+    if hit is None:
+        system = build()
+        hit = (system, stepper_for(system))
+        cache[key] = hit
+        if len(cache) > size:
+            cache.popitem(last=False)
+    else:
+        cache.move_to_end(key)
+    return hit
+
+
 def _default_builder(cfg: Any, temperature_c: float) -> AssembledSystem:
     from gear_rotor_sim.system import GearRotorSystem  # assembly module (physics core)
 
@@ -126,16 +143,13 @@ class SystemCache:
         a, b = (self._tq(v) for v in ramp_nodes(tq, RAMP_ASSEMBLY_QUANTUM_C, lo, hi))
         if tq in (a, b):
             return self._system(tq)
-        hit = self._nodes.get(tq)
-        if hit is None:
-            system = interpolated_system(self._system(a)[0], self._system(b)[0], tq, self._thermal_load(tq))
-            hit = (system, self._stepper_for(system))
-            self._nodes[tq] = hit
-            if len(self._nodes) > 4:
-                self._nodes.popitem(last=False)
-        else:
-            self._nodes.move_to_end(tq)
-        return hit
+        return _lru(
+            self._nodes,
+            tq,
+            lambda: interpolated_system(self._system(a)[0], self._system(b)[0], tq, self._thermal_load(tq)),
+            self._stepper_for,
+            4,
+        )
 
     def _system_at(self, tq: float, ramping: bool, speed_rpm: float) -> tuple[NewmarkStepper, bool]:
         """Stepper at the fine quantum ``tq`` and whether its modal state carries on (else the state is
@@ -211,16 +225,4 @@ class SystemCache:
             ) from exc
 
     def _system(self, tq: float) -> tuple[AssembledSystem, NewmarkStepper]:
-        hit = self._systems.get(tq)
-        if hit is None:
-            system = self._build(tq)
-            hit = (
-                system,
-                self._stepper_for(system),
-            )
-            self._systems[tq] = hit
-            if len(self._systems) > 8:
-                self._systems.popitem(last=False)
-        else:
-            self._systems.move_to_end(tq)
-        return hit
+        return _lru(self._systems, tq, lambda: self._build(tq), self._stepper_for, 8)

@@ -23,7 +23,7 @@ from gear_rotor_sim.solver.gear_mesh_solve import (
     _solve_meshes,
     _state_force,
 )
-from gear_rotor_sim.solver.gear_tables import _tables_at
+from gear_rotor_sim.solver.gear_tables import _table_cell, _tables_at
 from gear_rotor_sim.solver.kernels import _FM, STATUS_BOUND, STATUS_NONFINITE, STATUS_OK
 
 
@@ -110,13 +110,7 @@ def _end_excitation(
     finite = True
     for i in range(nm):
         f = phase[n, i]
-        x = f * nt
-        i0 = int(np.floor(x))
-        fr = x - i0
-        i0 = i0 % nt
-        i1 = i0 + 1
-        if i1 == nt:
-            i1 = 0
+        i0, i1, fr = _table_cell(f, nt)
         if jflag[i, i0] == 0:
             k = tab_kf[i, i0] + fr * (tab_kf[i, i1] - tab_kf[i, i0])
             for j in range(nb):

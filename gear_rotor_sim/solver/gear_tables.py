@@ -19,6 +19,20 @@ _C4, _C6, _C8, _C10 = 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800.0
 _S3, _S5, _S7, _S9, _S11 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0
 
 
+@njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
+def _table_cell(f: float, nt: int) -> tuple[int, int, float]:
+    """Table interval of cycle fraction ``f`` on a periodic table of ``nt`` points: its left and right
+    points (wrapped) and the fraction ``fr`` in [0, 1) across it."""
+    x = f * nt
+    i0 = int(np.floor(x))
+    fr = x - i0
+    i0 = i0 % nt
+    i1 = i0 + 1
+    if i1 == nt:
+        i1 = 0
+    return i0, i1, fr
+
+
 @njit(cache=True, fastmath=_FM, error_model="numpy", _nrt=False)
 def _tables_at(
     i: int,
@@ -44,13 +58,7 @@ def _tables_at(
     """
     nt = tables[3].shape[1]
     nb = tables[4].shape[2]
-    x = f * nt
-    i0 = int(np.floor(x))
-    fr = x - i0
-    i0 = i0 % nt
-    i1 = i0 + 1
-    if i1 == nt:
-        i1 = 0
+    i0, i1, fr = _table_cell(f, nt)
     if tables[2][i, i0] == 0 and not strict:
         for j in range(nb):
             c0 = tables[1][i, i0, j]
