@@ -1,7 +1,7 @@
 """The calibration's model runs: the simulator at the declared operating point with the given
 effects, cached per run (``ModelRunner``), the assembled system cached per config and
 temperature, the direct path of bearing-defect impacts and the housing sensor model of an
-accelerometer channel (moved from ``residual.py`` in session 16, unchanged).
+accelerometer channel (the streamed sensor's mode with the calibration's defaults).
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal as _sig
 
 from gear_rotor_sim.calibration.features_bearing import anti_aliased_impacts
 from gear_rotor_sim.calibration.measurement import OperatingPoint
@@ -22,43 +21,22 @@ from gear_rotor_sim.calibration.model_misalignment import mesh_force_run
 from gear_rotor_sim.calibration.model_settle import grown_start_samples, run_settled, whole_period_samples
 from gear_rotor_sim.calibration.model_window import hunting_period_s
 from gear_rotor_sim.faults.misalignment_force import needs_mesh_force, with_mesh_force
+from gear_rotor_sim.sensors.housing import HousingSensor as _StreamedHousingSensor
 
 
 @dataclass(frozen=True)
-class HousingSensor:
-    """Single-DOF housing/sensor mode driven by a bearing force (the accelerometer's view).
+class HousingSensor(_StreamedHousingSensor):
+    """The calibration's housing/sensor mode driven by a bearing force (the accelerometer's view).
 
-    ``m a_h'' ... : m x'' + 2 zeta omega_n m x' + omega_n^2 m x = F_bearing``; the sensor reads the
-    housing acceleration ``a_h = x''``, i.e. ``H(s) = s^2 / (m (s^2 + 2 zeta omega_n s + omega_n^2))``
-    (discretised by the bilinear transform without pre-warping: its resonance lands slightly below
-    ``f_n``, which is a fitted nuisance on measured rigs; ``sensors.housing.HousingSensor``, the
-    simulator's streamed housing channels, is the same mode pre-warped at ``f_n``. The CWRU reports were
-    fitted with this one, so the two are not merged). The housing resonance is what makes bearing
-    impacts ring in the kHz band seen in real recordings (McFadden & Smith 1984).
-
-    Attributes
-    ----------
-    frequency_hz : float
-        Housing/sensor natural frequency f_n (a fitted nuisance in the CWRU rig).
-    damping_ratio : float
-        zeta.
-    mass_kg : float
-        Effective housing mass m.
+    The single-DOF mode of :class:`gear_rotor_sim.sensors.housing.HousingSensor`
+    (``H(s) = s^2 / (m (s^2 + 2 zeta omega_n s + omega_n^2))``) with the calibration's defaults: a unit
+    mass and the bilinear transform not pre-warped, so its resonance lands slightly below ``f_n``, a
+    fitted nuisance on measured rigs (the CWRU reports were fitted this way). The housing resonance is
+    what makes bearing impacts ring in the kHz band seen in real recordings (McFadden & Smith 1984).
     """
 
-    frequency_hz: float = 3000.0
-    damping_ratio: float = 0.05
     mass_kg: float = 1.0
-
-    def apply(self, force: np.ndarray, sample_rate_hz: float) -> np.ndarray:
-        """Housing acceleration (m/s^2) for a bearing force history (N)."""
-        wn = 2.0 * math.pi * min(self.frequency_hz, 0.45 * sample_rate_hz)
-        b, a = _sig.bilinear(
-            [1.0, 0.0, 0.0],
-            [self.mass_kg, 2 * self.damping_ratio * wn * self.mass_kg, wn * wn * self.mass_kg],
-            fs=sample_rate_hz,
-        )
-        return _sig.lfilter(b, a, force - np.mean(force))
+    prewarp: bool = False
 
 
 _CACHE: OrderedDict[str, np.ndarray] = OrderedDict()
