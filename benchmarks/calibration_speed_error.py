@@ -265,6 +265,11 @@ def main(argv: list[str] | None = None) -> int:
         n_pass = sum(r["verdict"] == "PASS" for r in vrows)
         text += f"#### {name}\n\n" + table(vrows) + f"\n{n_pass} of {len(vrows)} pass.\n\n"
         rows += vrows
+    return finish(out, text, rows, t0, load0)
+
+
+def finish(out: Path, text: str, rows: list[dict[str, Any]], t0: float, load0: float) -> int:
+    """Print the tables with the run's load and time; write ``table.md`` and ``results.json``."""
     text += (
         f"1 job on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
         f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s.\n"
