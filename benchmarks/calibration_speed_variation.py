@@ -24,7 +24,6 @@ the error before/after and the verdict by the issue-11 criteria of ``calibration
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import re
 import sys
@@ -121,6 +120,13 @@ def _variation(res: dict[str, Any]) -> str:
     return "-"
 
 
+def row(case: VarCase, res: dict[str, Any], variant: str) -> dict[str, Any]:
+    """The table's verdict of one calibration, with the profile and the variation the report names."""
+    r = ci.judge(case.table_case(), res)
+    r.update(variant=variant, profile=case.profile, variation=_variation(res))
+    return r
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     head = (
         "| record | truth | profile | variation named | first effect | main parameter (error) | "
@@ -182,27 +188,14 @@ def main(argv: list[str] | None = None) -> int:
     load0 = os.getloadavg()[0]
     for c in todo:
         make(c, out, args.duration_s)
-    variants: list[tuple[str, Path | None]] = []
+    variants: list[tuple[str, Path | None, bool]] = []
     if not args.only_baseline:
-        variants.append(("no reference", None))
+        variants.append(("no reference", None, True))
     if not args.no_baseline:
-        variants.append((f"--baseline healthy {ci.BASELINE[0]:g} rpm (constant speed)", _reference(out, 2.0)))
-    rows: list[dict[str, Any]] = []
-    text = ""
-    for name, ref in variants:
-        vrows = []
-        for c in todo:
-            res = ci.calibrate(out / f"{c.tag}.csv", ref)
-            key = f"{c.tag}.{'baseline' if ref else 'noref'}.calibration.json"
-            (out / key).write_text(json.dumps(res, indent=1, default=str))
-            r = ci.judge(c.table_case(), res)
-            r.update(variant=name, profile=c.profile, variation=_variation(res))
-            vrows.append(r)
-            print(f"{name}: {r['record']} {r['verdict']} ({r['variation']})", file=sys.stderr, flush=True)
-        n_pass = sum(r["verdict"] == "PASS" for r in vrows)
-        text += f"#### {name}\n\n" + table(vrows) + f"\n{n_pass} of {len(vrows)} pass.\n\n"
-        rows += vrows
-    return se.finish(out, text, rows, t0, load0)
+        ref = _reference(out, 2.0)
+        variants.append((f"--baseline healthy {ci.BASELINE[0]:g} rpm (constant speed)", ref, True))
+    se.run_variants(variants, todo, out, row, table, "--no-speed-check", t0, load0)
+    return 0
 
 
 if __name__ == "__main__":
