@@ -204,6 +204,46 @@ def _reference(tag: str, declared: float, err: float, out: Path, duration_s: flo
     return dst
 
 
+def run_variants(
+    variants: list[tuple[str, Path | None, bool]],
+    todo: list[Any],
+    out: Path,
+    row: Any,
+    table: Any,
+    no_check: str,
+    t0: float,
+    load0: float,
+    reuse: bool = False,
+) -> list[dict[str, Any]]:
+    """Calibrate every case of ``todo`` in every ``(name, reference, check)`` variant (``no_check``: the CLI
+    option that turns the check off), one at a time; print and write ``table.md`` and ``results.json``.
+    ``reuse``: take a calibration already saved in ``out``. Shared with calibration_load_error.py."""
+    rows: list[dict[str, Any]] = []
+    text = ""
+    for name, ref, check in variants:
+        vrows = []
+        for c in todo:
+            key = f"{c.tag}.{'nocheck.' if not check else ''}{ref.stem if ref else 'noref'}.calibration.json"
+            if reuse and (out / key).exists():
+                res = json.loads((out / key).read_text())
+            else:
+                res = ci.calibrate(out / f"{c.tag}.csv", ref, () if check else (no_check,))
+                (out / key).write_text(json.dumps(res, indent=1, default=str))
+            vrows.append(row(c, res, name))
+            print(f"{name}: {vrows[-1]['record']} {vrows[-1]['verdict']}", file=sys.stderr, flush=True)
+        n_pass = sum(r["verdict"] == "PASS" for r in vrows)
+        text += f"#### {name}\n\n" + table(vrows) + f"\n{n_pass} of {len(vrows)} pass.\n\n"
+        rows += vrows
+    text += (
+        f"1 job on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
+        f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s.\n"
+    )
+    print(text)
+    (out / "table.md").write_text(text)
+    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="out/calibration_speed_error", help="records and results directory")
@@ -252,26 +292,7 @@ def main(argv: list[str] | None = None) -> int:
                 variants.append(
                     (f"--baseline {tag} (true {decl * (1 + err / 100):g} rpm){suffix}", ref, check)
                 )
-    rows: list[dict[str, Any]] = []
-    text = ""
-    for name, ref, check in variants:
-        vrows = []
-        for c in todo:
-            key = f"{c.tag}.{'nocheck.' if not check else ''}{ref.stem if ref else 'noref'}.calibration.json"
-            res = ci.calibrate(out / f"{c.tag}.csv", ref, () if check else ("--no-speed-check",))
-            (out / key).write_text(json.dumps(res, indent=1, default=str))
-            vrows.append(row(c, res, name))
-            print(f"{name}: {vrows[-1]['record']} {vrows[-1]['verdict']}", file=sys.stderr, flush=True)
-        n_pass = sum(r["verdict"] == "PASS" for r in vrows)
-        text += f"#### {name}\n\n" + table(vrows) + f"\n{n_pass} of {len(vrows)} pass.\n\n"
-        rows += vrows
-    text += (
-        f"1 job on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
-        f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s.\n"
-    )
-    print(text)
-    (out / "table.md").write_text(text)
-    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+    run_variants(variants, todo, out, row, table, "--no-speed-check", t0, load0)
     return 0
 
 

@@ -246,7 +246,11 @@ def fit_reference_baseline(
             "record); its baseline was fitted with it"
         )
     op = cal.m.operating_point  # the measured speed where the declared one was corrected (speed_check.py)
-    notes += [i for i in cal.m.issues if i.startswith("operating_point.speed_rpm")]
+    notes += [
+        i
+        for i in cal.m.issues
+        if i.startswith(("operating_point.speed_rpm", "operating_point.output_torque_nm"))
+    ]
     return ReferenceBaseline(
         effects=tuple(e for e in r.baseline_effects if isinstance(e, BASELINE_TYPES)),
         carrier_tolerance=float(r.model_form.get("carrier_tolerance", st.tolerance)),

@@ -90,6 +90,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "measured one is used where they disagree, reported as operating_speed; docs/calibration.md Sec. 2)",
     )
     parser.add_argument(
+        "--no-load-check",
+        action="store_true",
+        help="use the declared output torque as is (default: it is checked against the radial bearing-force "
+        "means and the measured one is used where they disagree, reported as operating_torque; "
+        "docs/calibration.md Sec. 2)",
+    )
+    parser.add_argument(
         "--steps-per-mesh",
         type=int,
         default=None,
@@ -199,6 +206,7 @@ def run(args: argparse.Namespace) -> int:
                     else args.steps_per_mesh,
                     log=log,
                     speed_check=not args.no_speed_check,
+                    load_check=not args.no_load_check,
                 )
                 for note in rb.notes:
                     log(f"baseline: {note}")
@@ -211,6 +219,7 @@ def run(args: argparse.Namespace) -> int:
                 steps_per_mesh=args.steps_per_mesh,
                 log=log,
                 speed_check=not args.no_speed_check,
+                load_check=not args.no_load_check,
                 **ref,
             )
         if args.tolerance is not None:
@@ -240,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{path.name}: {result.conclusion}")
         print(f"baseline ({result.baseline_source}):")
         for b in result.baseline_updates:
-            if b.effect is not None or b.name == "operating_speed":
+            if b.effect is not None or b.name in ("operating_speed", "operating_torque"):
                 ps = ", ".join(f"{k}={_fmt(v)}" for k, v in b.parameters.items())
                 print(f"  {b.label}: {ps}")
         print(

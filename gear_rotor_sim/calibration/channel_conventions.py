@@ -22,7 +22,10 @@ sensor gain is bounded to [0.8, 1.25], ``ResidualSettings.gain_bounds``). Read a
   mean / model mean`` is the sensor gain (``features_bearing.static_sensor_gains``). A ratio outside
   the gain range is reported naming the column: the two directions of one bearing exchanged when
   their crossed ratios are in the range, else the channel's sensitivity (or the declared output
-  torque, when every radial channel reads the same ratio). Nothing is corrected.
+  torque, when every radial channel reads the same ratio). Nothing is corrected here: read against the
+  model at the measured torque where ``load_check.check_load`` (run first) found every radial channel
+  off by one factor (the output torque, docs/calibration.md Sec. 2 "Load check"), so one channel off the
+  others stays a sensor.
 """
 
 from __future__ import annotations
@@ -33,13 +36,13 @@ from typing import Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.load_check import check_load, radial_channels
+
 #: ``rho <= -FLIP_RHO`` reads as a reversed sign; the other channels must read ``rho >= FLIP_RHO``
 FLIP_RHO = 0.3
 #: summed squared signal-to-noise ratio of the order features that makes a channel's reading (as the
 #: gain fit's threshold, ``Comparison.fit_gains``)
 MIN_SNR2 = 100.0
-#: a radial mean must stand this many noise deviations out (as ``static_sensor_gains``'s ``min_snr``)
-STATIC_MIN_SNR = 30.0
 
 
 def order_correlation(
@@ -146,16 +149,7 @@ def radial_mean_issues(
         One entry per channel whose ratio ``measured / model`` is outside ``bounds`` (module docstring).
     """
     d, m = np.asarray(measured_mean, float), np.asarray(model_mean, float)
-    sd = np.sqrt(np.where(np.isfinite(measured_var) & (np.asarray(measured_var) >= 0), measured_var, np.inf))
-    radial = [
-        k
-        for k, c in enumerate(channels)
-        if c.quantity == "bearing_force"
-        and c.direction in ("x", "y")
-        and np.isfinite(m[k])
-        and abs(m[k]) > STATIC_MIN_SNR * sd[k]
-        and abs(d[k]) > STATIC_MIN_SNR * sd[k]
-    ]
+    radial, _ = radial_channels(d, measured_var, m, channels)
     ratio = {k: d[k] / m[k] for k in radial}
     lo, hi = bounds
     bad = [k for k in radial if not lo <= ratio[k] <= hi]
@@ -220,6 +214,7 @@ def check_conventions(cal: Any) -> np.ndarray:
             cal.step_choice = None
             cal.cmp = Comparison(cal.m, cal.runner, cal.settings, cal._env_max)
             base_out = cal._setup()
+    base_out = check_load(cal, base_out, n_notes)  # the output torque (load_check.py)
     cmp = cal.cmp
     if "static" in cmp.families:
         for issue in radial_mean_issues(

@@ -79,6 +79,7 @@ from gear_rotor_sim.calibration.fit_types import (
     reported_parameters,
 )
 from gear_rotor_sim.calibration.fit_verify import Verification
+from gear_rotor_sim.calibration.load_check import torque_entry
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice
 from gear_rotor_sim.calibration.model_window import model_window_samples
@@ -170,6 +171,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
     speed_check : bool
         Read the input speed from the record's mesh lines and calibrate at it where it disagrees with
         the declared one (``speed_check.py``; default True; rigs without a mesh are not checked).
+    load_check : bool
+        Read the output torque from the radial bearing-force means and calibrate at it where it
+        disagrees with the declared one (``load_check.py``; default True).
     """
 
     def __init__(
@@ -193,6 +197,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         rattle_rules: bool = True,
         reference_numerics: bool | None = None,
         speed_check: bool = True,
+        load_check: bool = True,
     ) -> None:
         if cfg is None:
             from gear_rotor_sim.config import load_config
@@ -206,6 +211,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         if speed_check:
             measurement, self.speed = check_operating_speed(measurement, cfg)
         self.m = measurement
+        self.load_check = load_check
+        self.torque_correction = None  # set by channel_conventions.check_conventions (load_check.py)
         self.rattle_rules = rattle_rules
         #: the exact order integral, the velocity derivative and the envelope-band fallback where the
         #: healthy model stays in contact (Sec. 8.18): for a held reference baseline and its fit
@@ -545,6 +552,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
             baseline_updates.append(self._sensor_entry(cur_score))
         if speed_errors is not None:
             baseline_updates.insert(0, speed_entry(self.speed, *speed_errors))
+        if self.torque_correction is not None:
+            baseline_updates.insert(0, torque_entry(self.torque_correction))
         return CalibrationResult(
             self.m,
             found,
