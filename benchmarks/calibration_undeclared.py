@@ -7,7 +7,10 @@ record here is a ``lumped_gearbox`` record of the issue-11 table (same generator
 ``benchmarks/calibration_independent.py``, so the correctly declared result of the same record is that
 table's row) with ONE such effect added: in the measurement chain by post-processing the noisy record
 (the generator is never changed), or through the generator's own inputs (``bearing_stiffness`` fault,
-noise level, duration). It is then diagnosed by ``gear-rotor-sim calibrate RECORD --json``.
+noise level, duration). Session 18 added the acquisition chain's disturbances (spikes, a mount resonance,
+coloured noise, dropouts, NaN, time-base gaps and repeats, a gain modulation: ``undeclared_disturbances.py``)
+and base records at other seeds and 8000 rpm (:data:`BASES`). It is then diagnosed by
+``gear-rotor-sim calibrate RECORD --json``.
 
 What is asked (docs/history/calibration_sessions.md Sec. 8.43): the calibration either explains the
 effect (a baseline update, or a library effect with the right meaning) or says plainly that it cannot
@@ -15,7 +18,9 @@ effect (a baseline update, or a library effect with the right meaning) or says p
 healthy: nothing in ``effects``; fault: named first (right wheel / tooth), main parameter within
 25 %, error at least halved (``calibration_independent.judge``). Besides, ``issues_true``: does an
 ``issues`` entry name the disturbed channel (effects on one channel), or is it ``-`` (effects of the
-whole record, which the verdict alone judges).
+whole record, which the verdict alone judges). A refusal (exit status 2) whose message names the disturbed
+field is ``REFUSED`` and counts as a pass; ``wrong_claim`` counts a library effect on a healthy record or a
+wrong effect named first.
 
 Usage::
 
@@ -44,25 +49,32 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import calibration_independent as ci
+import undeclared_disturbances as ud
 
-from lumped_gearbox import CONTACT_RPM, make_record, write_record
+from lumped_gearbox import CONTACT_RPM, RATTLE_RPM, make_record, write_record
+from lumped_gearbox.record import Record
 
-#: the records of the issue-11 table this benchmark disturbs: tag -> (fault or None, the table's seed)
-BASES: dict[str, tuple[str | None, int]] = {
-    "healthy": (None, 34),  # healthy_3000rpm_25C
-    "tooth_pinion": (ci.FAULTS[0], 11),  # contact_tooth_damage_pinion: pinion tooth 7, depth 0.4
-    "gear_ecc": (ci.FAULTS[3], 14),  # contact_gear_eccentricity: 20 um
-    "wear": (ci.FAULTS[6], 17),  # contact_tooth_wear: 20 um
-    "outer_race": (ci.FAULTS[8], 19),  # contact_outer_race_defect: 300 N
+#: the records of the issue-11 table this benchmark disturbs: tag -> (fault or None, the table's seed, speed)
+BASES: dict[str, tuple[str | None, int, float]] = {
+    "healthy": (None, 34, CONTACT_RPM),  # healthy_3000rpm_25C
+    "tooth_pinion": (ci.FAULTS[0], 11, CONTACT_RPM),  # contact_tooth_damage_pinion: pinion tooth 7, depth 0.4
+    "gear_ecc": (ci.FAULTS[3], 14, CONTACT_RPM),  # contact_gear_eccentricity: 20 um
+    "unbalance": (ci.FAULTS[4], 15, CONTACT_RPM),  # contact_mass_unbalance: 3e-4 kg m
+    "wear": (ci.FAULTS[6], 17, CONTACT_RPM),  # contact_tooth_wear: 20 um
+    "outer_race": (ci.FAULTS[8], 19, CONTACT_RPM),  # contact_outer_race_defect: 300 N
+    "ball": (ci.FAULTS[10], 21, CONTACT_RPM),  # contact_ball_defect: 300 N
+    "healthy_8000": (None, 35, RATTLE_RPM),  # healthy_8000rpm_25C
 }
 
-Post = Callable[[dict[str, np.ndarray], float], None]
+#: a disturbance applied to the noisy record in place (data, time axis) at sample rate ``fs``
+Post = Callable[[Record, float], None]
 
 
 def offset(col: str, value: float | None = None, rms_fraction: float | None = None) -> Post:
     """Add a constant to one column: ``value`` (SI) or ``rms_fraction`` x its RMS about the mean."""
 
-    def post(data: dict[str, np.ndarray], fs: float) -> None:
+    def post(rec: Record, fs: float) -> None:
+        data = rec.data
         x = data[col]
         data[col] = x + (value if value is not None else float(rms_fraction or 0.0) * float(np.std(x)))
 
@@ -72,8 +84,8 @@ def offset(col: str, value: float | None = None, rms_fraction: float | None = No
 def gain(col: str, factor: float) -> Post:
     """Multiply one column (a wrong sensitivity; a sign flip is ``factor = -1``)."""
 
-    def post(data: dict[str, np.ndarray], fs: float) -> None:
-        data[col] = factor * data[col]
+    def post(rec: Record, fs: float) -> None:
+        rec.data[col] = factor * rec.data[col]
 
     return post
 
@@ -81,7 +93,8 @@ def gain(col: str, factor: float) -> Post:
 def swap(a: str, b: str) -> Post:
     """Exchange two columns (x and y of a sensor swapped in the wiring or the sidecar)."""
 
-    def post(data: dict[str, np.ndarray], fs: float) -> None:
+    def post(rec: Record, fs: float) -> None:
+        data = rec.data
         data[a], data[b] = data[b], data[a]
 
     return post
@@ -90,7 +103,8 @@ def swap(a: str, b: str) -> Post:
 def mains(cols: tuple[str, ...], hz: float = 50.0, rms_fraction: float = 0.5) -> Post:
     """Add a mains line ``sqrt(2) * rms_fraction * RMS`` at ``hz`` (phase 0.3 rad) to each column."""
 
-    def post(data: dict[str, np.ndarray], fs: float) -> None:
+    def post(rec: Record, fs: float) -> None:
+        data = rec.data
         for c in cols:
             x = data[c]
             t = np.arange(x.size) / fs
@@ -103,9 +117,9 @@ def mains(cols: tuple[str, ...], hz: float = 50.0, rms_fraction: float = 0.5) ->
 def delay(col: str, samples: int) -> Post:
     """Delay one column by whole samples (the first sample repeated at the start)."""
 
-    def post(data: dict[str, np.ndarray], fs: float) -> None:
-        x = data[col]
-        data[col] = np.concatenate([np.full(samples, x[0]), x[:-samples]])
+    def post(rec: Record, fs: float) -> None:
+        x = rec.data[col]
+        rec.data[col] = np.concatenate([np.full(samples, x[0]), x[:-samples]])
 
     return post
 
@@ -113,11 +127,11 @@ def delay(col: str, samples: int) -> Post:
 def clip(col: str, fraction: float = 0.8) -> Post:
     """Clip one column at ``fraction`` of its largest deviation from the mean (both signs)."""
 
-    def post(data: dict[str, np.ndarray], fs: float) -> None:
-        x = data[col]
+    def post(rec: Record, fs: float) -> None:
+        x = rec.data[col]
         m = float(np.mean(x))
         lim = fraction * float(np.max(np.abs(x - m)))
-        data[col] = np.clip(x, m - lim, m + lim)
+        rec.data[col] = np.clip(x, m - lim, m + lim)
 
     return post
 
@@ -129,11 +143,15 @@ class Undeclared:
     name: str
     what: str
     bases: tuple[str, ...]
-    channel: str | None = None  # the disturbed column (issues are checked for it)
+    channel: str | tuple[str, ...] | None = None  # the disturbed column(s) (issues are checked for one)
     post: Post | None = None
     record_kw: dict[str, Any] = field(default_factory=dict)  # make_record keywords (noise, duration_s)
     extra_fault: str | None = None  # a generator fault that is a baseline property, not a fault
+    keyword: str | None = None  # a word the naming issue must hold too (other notes name channels as well)
 
+
+#: the record's data columns (lumped_gearbox.record.SIDECAR_CHANNELS)
+ALL_COLUMNS = ("dte", "bearing2_fx", "bearing2_fy", "bearing2_fz", "node5_ax", "node5_ay")
 
 #: in the order of how likely a real user's data holds them
 EFFECTS: list[Undeclared] = [
@@ -237,6 +255,86 @@ EFFECTS: list[Undeclared] = [
         ("healthy", "tooth_pinion"),
         record_kw={"duration_s": 0.5},
     ),
+    # session 18 (rnoise9, Sec. 8.47): disturbances of the acquisition chain
+    Undeclared(
+        "spikes_bearing2_fy",
+        "random spikes on bearing2_fy: 20 per second, 10-50 x its noise, 1-3 samples",
+        ("healthy", "tooth_pinion", "outer_race", "ball", "unbalance", "healthy_8000"),
+        "bearing2_fy",
+        ud.spikes(("bearing2_fy",)),
+        keyword="spike",
+    ),
+    Undeclared(
+        "spikes_common",
+        "common-mode spikes on every channel at the same times: 20 per second, 10-50 x each noise, "
+        "1-3 samples",
+        ("healthy", "outer_race", "ball", "healthy_8000"),
+        ALL_COLUMNS,
+        ud.spikes(ALL_COLUMNS),
+        keyword="spike",
+    ),
+    Undeclared(
+        "mount_resonance_node5_ay",
+        "node5_ay on a compliant mount: resonance at 6 kHz, Q 20",
+        ("healthy", "tooth_pinion", "ball"),
+        "node5_ay",
+        ud.mount_resonance("node5_ay"),
+    ),
+    Undeclared(
+        "pink_noise",
+        "every channel's noise 1/f (pink) instead of white, same standard deviation",
+        ("healthy", "tooth_pinion", "ball"),
+        post=ud.pink_noise(),
+    ),
+    Undeclared(
+        "dropout_zero_bearing2_fx",
+        "bearing2_fx reads 0 for 30 ms from t = 0.9 s",
+        ("healthy", "tooth_pinion", "ball"),
+        "bearing2_fx",
+        ud.dropout("bearing2_fx"),
+    ),
+    Undeclared(
+        "dropout_hold_node5_ay",
+        "node5_ay holds its value for 30 ms from t = 0.9 s",
+        ("healthy", "tooth_pinion"),
+        "node5_ay",
+        ud.dropout("node5_ay", hold=True),
+    ),
+    Undeclared(
+        "nan_node5_ax",
+        "5 single NaN samples on node5_ax",
+        ("healthy",),
+        "node5_ax",
+        ud.nan_samples("node5_ax"),
+    ),
+    Undeclared(
+        "time_gap_50ms",
+        "50 ms of samples lost at t = 1 s (the time column jumps)",
+        ("healthy",),
+        "time_s",
+        ud.time_gap(),
+    ),
+    Undeclared(
+        "repeat_block_20ms",
+        "the 20 ms before t = 1 s delivered twice with their time stamps (the time column steps back)",
+        ("healthy",),
+        "time_s",
+        ud.repeated_block(),
+    ),
+    Undeclared(
+        "repeat_block_20ms_retimed",
+        "the 20 ms before t = 1 s delivered twice, the time column running on",
+        ("healthy", "tooth_pinion"),
+        ALL_COLUMNS,
+        ud.repeated_block(retime=True),
+    ),
+    Undeclared(
+        "gain_mod_bearing2_fy",
+        "bearing2_fy gain modulated 8 % at 3.7 Hz (a loose connector)",
+        ("healthy", "outer_race", "ball"),
+        "bearing2_fy",
+        ud.gain_modulation("bearing2_fy"),
+    ),
 ]
 
 
@@ -255,7 +353,7 @@ class Case:
 
     def judged(self) -> ci.Case:
         """The table's case type, for ``ci.judge`` (a baseline property is not a fault to name)."""
-        return ci.Case(self.tag, CONTACT_RPM, 25.0, self.fault, BASES[self.base][1])
+        return ci.Case(self.tag, BASES[self.base][2], 25.0, self.fault, BASES[self.base][1])
 
 
 def cases() -> list[Case]:
@@ -266,28 +364,61 @@ def make(case: Case, out: Path) -> Path:
     """The table's record (same seed, daq sampling) with the undeclared effect added."""
     faults = [f for f in (case.fault, case.effect.extra_fault) if f]
     kw = {"duration_s": 2.0, **case.effect.record_kw}
-    rec = make_record(CONTACT_RPM, 25.0, faults, seed=BASES[case.base][1], sampling="daq", **kw)
+    _, seed, speed = BASES[case.base]
+    rec = make_record(speed, 25.0, faults, seed=seed, sampling="daq", **kw)
     if case.effect.post is not None:
         fs = 1.0 / float(rec.time_s[1] - rec.time_s[0])
-        case.effect.post(rec.data, fs)
+        case.effect.post(rec, fs)
     return write_record(out / f"{case.tag}.csv", rec)
 
 
-def _issues_true(case: Case, res: dict[str, Any]) -> str:
-    """``yes`` if an ``issues`` entry names the disturbed column, ``no`` if none does, ``-`` without one."""
+def _columns(case: Case) -> tuple[str, ...]:
     col = case.effect.channel
-    if col is None or case.effect.name == "declared" or res.get("failed"):
+    return () if col is None else (col,) if isinstance(col, str) else col
+
+
+def _names(text: str, cols: tuple[str, ...], keyword: str | None = None) -> bool:
+    return any(c in text for c in cols) and (keyword is None or keyword in text)
+
+
+def _issues_true(case: Case, res: dict[str, Any]) -> str:
+    """``yes`` if an ``issues`` entry (or a refusal's message) names a disturbed column, ``no`` if none
+    does, ``-`` for an effect of the whole record."""
+    cols = _columns(case)
+    if not cols or case.effect.name == "declared":
         return "-"
-    return "yes" if any(col in str(i) for i in res.get("issues") or []) else "no"
+    kw = case.effect.keyword
+    if res.get("failed"):
+        return "yes" if _names(str(res.get("stderr", "")), cols) else "no"
+    return "yes" if any(_names(str(i), cols, kw) for i in res.get("issues") or []) else "no"
 
 
 def judge(case: Case, res: dict[str, Any]) -> dict[str, Any]:
+    """The table's verdict, and whether the disturbance was named; a refusal (exit status 2) naming the
+    disturbed field is ``REFUSED`` (the calibration said plainly that it cannot use the record)."""
     row = ci.judge(case.judged(), res)
     row.update(effect=case.effect.name, base=case.base, issues_true=_issues_true(case, res))
-    col = case.effect.channel
-    row["issues"] = [str(i) for i in res.get("issues") or [] if col is None or col in str(i)]
+    cols = _columns(case)
+    if res.get("failed"):
+        msg = str(res.get("stderr", "")).strip().splitlines()
+        row["issues"] = msg[-1:] if msg else []
+        if row["issues_true"] == "yes":
+            row["verdict"] = "REFUSED"
+        row["wrong_claim"] = False
+        return row
+    kw = case.effect.keyword
+    row["issues"] = [str(i) for i in res.get("issues") or [] if not cols or _names(str(i), cols, kw)]
+    row["wrong_claim"] = _wrong_claim(case, res)
     row["not_claimed"] = [e.get("label") or e.get("name") for e in res.get("not_claimed") or []]
     return row
+
+
+def _wrong_claim(case: Case, res: dict[str, Any]) -> bool:
+    """A library effect on a healthy record, or a first effect other than the injected fault's."""
+    effects = res.get("effects") or []
+    if case.fault is None:
+        return bool(effects)
+    return bool(effects) and effects[0].get("name") != ci.parse_fault(case.fault).name
 
 
 def _job(args: tuple[Case, str, str | None]) -> dict[str, Any]:
@@ -338,9 +469,14 @@ def render(rows: list[dict[str, Any]], note: str) -> str:
         if not part:
             continue
         done = [r for r in part if r["verdict"] != "not run"]
-        n_pass = sum(r["verdict"] == "PASS" for r in done)
+        n_pass = sum(r["verdict"] in ("PASS", "REFUSED") for r in done)
+        wrong = sum(bool(r.get("wrong_claim")) for r in done)
+        silent = sum(r.get("issues_true") == "no" for r in done)
         cpus = sorted(r["cpu_s"] for r in done if r.get("cpu_s") is not None)
-        text += f"#### {title}: {n_pass} of {len(done)} pass\n\n" + table(part)
+        text += (
+            f"#### {title}: {n_pass} of {len(done)} pass (PASS or REFUSED naming the field), "
+            f"{wrong} wrong claim(s), {silent} silent on the disturbed channel\n\n" + table(part)
+        )
         if cpus:
             text += f"\nCPU per record: median {cpus[len(cpus) // 2]:.0f} s, max {cpus[-1]:.0f} s.\n\n"
     return text + f"{note}.\n"

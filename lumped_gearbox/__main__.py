@@ -8,6 +8,7 @@ import time
 
 from lumped_gearbox.faults import FAULT_NAMES, parse_fault
 from lumped_gearbox.record import make_record, write_record
+from lumped_gearbox.speed_profile import SpeedProfile
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,10 +40,34 @@ def main(argv: list[str] | None = None) -> int:
         help="daq (default): converged RK4 step, anti-aliasing low-pass, then sampling; "
         "point: every 8th RK4 state without a low-pass (the records of sessions 1-12)",
     )
+    rec.add_argument(
+        "--speed-drift-pct",
+        type=float,
+        default=0.0,
+        help="speed_profile.drift_pct: change of the input speed over the record, %% of --speed-rpm "
+        "(-10 .. 10, centred: --speed-rpm is the mean; default 0)",
+    )
+    rec.add_argument(
+        "--speed-fluctuation-pct",
+        type=float,
+        default=0.0,
+        help="speed_profile.fluctuation_pct: amplitude of a sinusoidal fluctuation, %% (0 .. 5; default 0)",
+    )
+    rec.add_argument(
+        "--speed-fluctuation-hz",
+        type=float,
+        default=0.0,
+        help="speed_profile.fluctuation_hz: its frequency, Hz (0 .. 50)",
+    )
     rec.add_argument("--out", required=True, help="output CSV path")
     args = parser.parse_args(argv)
     try:
         faults = [parse_fault(f) for f in args.fault]
+        profile = None
+        if args.speed_drift_pct or args.speed_fluctuation_pct:
+            profile = SpeedProfile(
+                args.speed_drift_pct, args.speed_fluctuation_pct, args.speed_fluctuation_hz
+            )
         t0 = time.perf_counter()
         r = make_record(
             args.speed_rpm,
@@ -53,6 +78,7 @@ def main(argv: list[str] | None = None) -> int:
             seed=args.seed,
             housing=args.housing,
             sampling=args.sampling,
+            speed_profile=profile,
         )
         path = write_record(args.out, r)
     except (ValueError, RuntimeError) as exc:

@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from lumped_gearbox.speed_profile import relative_speed, time_at
+
 # SKF 6206 (30 mm bore): 9 balls of 9.525 mm on a 46 mm pitch circle (catalogue values)
 N_BALLS = 9
 BALL_D = 9.525e-3
@@ -55,35 +57,51 @@ def defect_forces(
     t: np.ndarray,
     load_angle_rad: float,
     seed: int = 0,
+    profile: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Force on the housing of bearing 2, ``(len(t), 2)`` (x, y), N, for one defect."""
+    """Force on the housing of bearing 2, ``(len(t), 2)`` (x, y), N, for one defect.
+
+    With a varying input speed (``profile``, ``speed_profile.py``) the impacts fall at the same
+    increments of the true shaft angle: each impact's constant-speed time is mapped to the time the
+    varying shaft reaches that angle, and its pulse is shortened in proportion to the speed there.
+    """
     kin = kinematics(speed_rpm)
     rate = kin[f"{kind}_rate"]
     tau = SPALL_WIDTH / kin[f"{kind}_speed"]
     fs = 1.0 / float(t[1] - t[0])
     rng = np.random.default_rng(seed)
-    n_imp = math.ceil((t[-1] + 1.0 / fs) * rate) + 2
+    varying = profile is not None and profile[0] != 0.0
+    # a varying speed reaches the record's end at up to 1.25 x the nominal angle (speed_profile.py's ranges)
+    n_imp = math.ceil((t[-1] + 1.0 / fs) * rate * (1.25 if varying else 1.0)) + 2
     gaps = (1.0 + SLIP * rng.standard_normal(n_imp)) / rate
     times = np.cumsum(gaps) - gaps[0] * 0.5
-    times = times[times < t[-1] + 1.0 / fs]
+    if not varying:
+        times = times[times < t[-1] + 1.0 / fs]
     if kind == "outer":
         angles = np.full(times.size, defect_angle_rad)
     elif kind == "inner":
         angles = kin["shaft"] * times + defect_angle_rad
     else:
         angles = kin["cage"] * times + defect_angle_rad
+    widths = np.full(times.size, tau)
+    if varying:
+        # the constant-speed time of each impact is its shaft angle over w0: the true time reaches it
+        times = time_at(profile, times)
+        widths = tau / relative_speed(profile, times)
+        keep = times < t[-1] + 1.0 / fs
+        times, angles, widths = times[keep], angles[keep], widths[keep]
     q = np.maximum(np.cos(angles - load_angle_rad), 0.0) ** 1.5
     out = np.zeros((t.size, 2))
     sub = (np.arange(10) + 0.5) / 10.0 / fs  # 10 points per sample interval
-    for tk, ak, qk in zip(times, angles, q, strict=True):
+    for tk, ak, qk, wk in zip(times, angles, q, widths, strict=True):
         if qk <= 0.0:
             continue
         i0 = max(0, math.floor((tk - t[0]) * fs) - 1)  # t need not start at 0 (daq.py starts before it)
-        i1 = min(t.size, math.ceil((tk + tau - t[0]) * fs) + 1)
+        i1 = min(t.size, math.ceil((tk + wk - t[0]) * fs) + 1)
         if i0 >= i1:
             continue
         ts = t[i0:i1, None] - 0.5 / fs + sub[None, :] - tk
-        pulse = np.where((ts >= 0) & (ts <= tau), np.sin(math.pi * ts / tau), 0.0).mean(axis=1)
+        pulse = np.where((ts >= 0) & (ts <= wk), np.sin(math.pi * ts / wk), 0.0).mean(axis=1)
         f = force_n * qk * pulse
         out[i0:i1, 0] += f * math.cos(ak)
         out[i0:i1, 1] += f * math.sin(ak)

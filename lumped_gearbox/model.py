@@ -17,8 +17,12 @@ the bearings' dampers act on the wheel's lateral/axial motion.
     J2 q2''  = T2 - F_m rb2
 
 ``u = z1 w1 t / 2 pi`` is the mesh position in cycles, ``b`` the thermal half backlash, ``g(t)`` the
-misalignment wobble angle, ``f_c`` the fraction of face slices in contact. A breathing shaft crack adds
-``dk (n . d)_+ n`` to that wheel's lateral force ``f_p`` / ``f_g`` (``shaft_faults.py``).
+misalignment wobble angle, ``f_c`` the fraction of face slices in contact. With a speed profile
+(``speed_profile.py``) the input end turns by ``psi(t)`` instead of ``w1 t``: ``u = z1 psi / 2 pi``, the
+wheels' angles and rotating forces follow ``psi`` and ``psi'``, and ``-psi''`` (pinion) and
+``+psi'' z1 / z2`` (gear) join the torsional accelerations (coordinates relative to the driven rotation).
+A breathing shaft crack adds ``dk (n . d)_+ n`` to that wheel's lateral force ``f_p`` / ``f_g``
+(``shaft_faults.py``).
 """
 
 from __future__ import annotations
@@ -61,9 +65,12 @@ N_OUT = 26  # q (8), v (8), a (8), mesh force, mesh stiffness
 
 
 @njit(cache=True, inline="always")
-def _mesh_state(t, geo, kk, fault, tooth_p, tooth_g):
-    """Mesh stiffness, stiffness-weighted wear gap and mesh position at time t."""
+def _mesh_state(t, geo, kk, fault, tooth_p, tooth_g, ex):
+    """Mesh stiffness, stiffness-weighted wear gap and mesh position at time t (``ex``: the input
+    angle beyond ``w1 t`` divided by ``w1``, speed_profile.py; 0 at a constant speed)."""
     u = geo[G_Z1] * geo[G_W1] * t / (2.0 * math.pi)
+    if ex != 0.0:
+        u += geo[G_Z1] * geo[G_W1] * ex / (2.0 * math.pi)
     eps = geo[G_EPS]
     sp = geo[G_PITCH]
     wmax = max(sp, 1.0 - sp)
@@ -93,8 +100,23 @@ def _deadzone(d, b):
     return 0.0, 0.0
 
 
+@njit(cache=True, inline="always")
+def _profile(t, prof):
+    """Input angle beyond ``w1 t`` over ``w1`` (s), speed over ``w1``, input angular acceleration
+    over ``w1`` (1/s) of the speed profile ``prof`` (speed_profile.py; all zero: constant speed)."""
+    if prof[0] == 0.0:
+        return 0.0, 1.0, 0.0
+    ph = prof[4] * t + prof[5]
+    ex = prof[1] * t + 0.5 * prof[2] * t * t + prof[3] * (math.cos(prof[5]) - math.cos(ph)) / prof[4]
+    return (
+        ex,
+        1.0 + prof[1] + prof[2] * t + prof[3] * math.sin(ph),
+        prof[2] + prof[3] * prof[4] * math.cos(ph),
+    )
+
+
 @njit(cache=True)
-def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g):
+def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
     """Accelerations ``a`` (in place); returns (mesh force, mesh stiffness)."""
     sa = geo[G_SA]
     ca = geo[G_CA]
@@ -102,7 +124,16 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g):
     rb2 = geo[G_RB2]
     psi1 = geo[G_W1] * t
     psi2 = geo[G_W2] * t
-    k, wear, u = _mesh_state(t, geo, kk, fault, tooth_p, tooth_g)
+    w1 = geo[G_W1]
+    w2 = geo[G_W2]
+    ex, rel, acc = _profile(t, prof)
+    if prof[0] != 0.0:
+        # the input end driven at the prescribed angle (speed_profile.py)
+        psi1 += w1 * ex
+        psi2 += w2 * ex
+        w1 = w1 * rel
+        w2 = w2 * rel
+    k, wear, u = _mesh_state(t, geo, kk, fault, tooth_p, tooth_g, ex)
     # geometric centre offsets projected on the line of action (gear turns the other way)
     pp = psi1 + fault[F_ECC_P_PH]
     pg = psi2 + fault[F_ECC_G_PH]
@@ -132,8 +163,6 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g):
         fel = k * f
     fm = fel + cc[C_M] * fc * ddelta
     # rotating forces: unbalance and the whirl of an eccentric wheel's mass centre
-    w1 = geo[G_W1]
-    w2 = geo[G_W2]
     fpx = fault[F_UNB_P] * w1 * w1 * math.cos(psi1 + fault[F_UNB_P_PH]) + mass[M_ME1] * fault[
         F_ECC_P
     ] * w1 * w1 * math.cos(pp)
@@ -168,13 +197,18 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g):
     a[5] = (-kk[K_L2] * q[5] - cc[C_L2] * v[5] + fm * ca + fgy) / mass[M_M2]
     a[6] = (-kk[K_Z2] * q[6] - cc[C_Z2] * v[6] + fax) / mass[M_M2]
     a[7] = (load[L_T2] - fm * rb2) / mass[M_J2]
+    if prof[0] != 0.0:
+        # coordinates relative to the driven rotation: its angular acceleration (speed_profile.py)
+        a[3] -= geo[G_W1] * acc
+        a[7] += geo[G_W2] * acc
     return fm, k
 
 
 @njit(cache=True)
-def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, n_skip):
+def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, n_skip, prof):
     """Classical RK4 with step ``dt`` from ``t0``; every ``n_sub``-th step after ``n_skip`` output
-    samples' worth of steps is stored: q, v, a (8 each), mesh force, mesh stiffness."""
+    samples' worth of steps is stored: q, v, a (8 each), mesh force, mesh stiffness. ``prof``: the
+    input speed profile (speed_profile.py; zeros: constant speed)."""
     out = np.empty((n_out, N_OUT))
     q = q0.copy()
     v = v0.copy()
@@ -188,7 +222,7 @@ def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, toot
     h = dt
     for step in range(total):
         t = t0 + step * h
-        fm, km = _rhs(t, q, v, a1, geo, mass, kk, cc, load, fault, tooth_p, tooth_g)
+        fm, km = _rhs(t, q, v, a1, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
         if step % n_sub == 0 and step >= n_skip * n_sub:
             i = step // n_sub - n_skip
             out[i, 0:8] = q
@@ -199,15 +233,15 @@ def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, toot
         for j in range(8):
             qt[j] = q[j] + 0.5 * h * v[j]
             vt[j] = v[j] + 0.5 * h * a1[j]
-        _rhs(t + 0.5 * h, qt, vt, a2, geo, mass, kk, cc, load, fault, tooth_p, tooth_g)
+        _rhs(t + 0.5 * h, qt, vt, a2, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
         for j in range(8):
             qt[j] = q[j] + 0.5 * h * (v[j] + 0.5 * h * a1[j])
             vt[j] = v[j] + 0.5 * h * a2[j]
-        _rhs(t + 0.5 * h, qt, vt, a3, geo, mass, kk, cc, load, fault, tooth_p, tooth_g)
+        _rhs(t + 0.5 * h, qt, vt, a3, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
         for j in range(8):
             qt[j] = q[j] + h * (v[j] + 0.5 * h * a2[j])
             vt[j] = v[j] + h * a3[j]
-        _rhs(t + h, qt, vt, a4, geo, mass, kk, cc, load, fault, tooth_p, tooth_g)
+        _rhs(t + h, qt, vt, a4, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
         for j in range(8):
             q[j] += h * (v[j] + h / 6.0 * (a1[j] + a2[j] + a3[j]))
             v[j] += h / 6.0 * (a1[j] + 2.0 * a2[j] + 2.0 * a3[j] + a4[j])

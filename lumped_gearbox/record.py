@@ -22,6 +22,7 @@ from lumped_gearbox.faults import Fault, fault_truth, parse_fault
 from lumped_gearbox.housing import housing_acceleration
 from lumped_gearbox.params import Gearbox
 from lumped_gearbox.simulate import CHANNELS, build, run
+from lumped_gearbox.speed_profile import SpeedProfile
 
 SIDECAR_CHANNELS = [
     {"column": "dte", "quantity": "dynamic_transmission_error", "unit": "m"},
@@ -62,9 +63,11 @@ class Record:
     contact_loss_fraction: float = 0.0
     sampling: str = "daq"
     substeps: int = DAQ_SUBSTEPS
+    #: the input speed's drift and fluctuation about the declared (mean) speed; None: constant
+    speed_profile: SpeedProfile | None = None
 
     def truth(self) -> dict[str, Any]:
-        return {
+        out = {
             "generator": "lumped_gearbox",
             "speed_rpm": self.speed_rpm,
             "declared_temperature_c": self.temperature_c,
@@ -77,6 +80,9 @@ class Record:
             "sampling": self.sampling,
             "substeps": self.substeps,
         }
+        if self.speed_profile is not None:
+            out["speed_profile"] = self.speed_profile.truth()
+        return out
 
 
 def make_record(
@@ -92,6 +98,7 @@ def make_record(
     housing: bool = False,
     sampling: str = "daq",
     substeps: int | None = None,
+    speed_profile: SpeedProfile | dict[str, float] | None = None,
 ) -> Record:
     """Simulate the lumped gearbox and add sensor noise and gain errors.
 
@@ -121,12 +128,19 @@ def make_record(
         a low-pass (content above ``fs / 2`` folds into the record).
     substeps : int, optional
         RK4 steps per output sample (default: 32 for ``"daq"``, 8 for ``"point"``).
+    speed_profile : SpeedProfile or dict, optional
+        An input speed that varies within the record (:mod:`lumped_gearbox.speed_profile`):
+        ``drift_pct`` (-10 .. 10, the change over the record, centred), ``fluctuation_pct`` (0 .. 5)
+        at ``fluctuation_hz`` (0 .. 50), ``fluctuation_phase_rad``; ``speed_rpm`` is the mean. The
+        sidecar still declares ``speed_rpm``; the truth file holds the profile. None (default): the
+        constant speed of every earlier record (bit for bit).
 
     Raises
     ------
     ValueError
-        Naming the field: ``sampling`` not one of :data:`SAMPLINGS`, ``substeps`` below 1, and the
-        operating point and fault checks of :func:`simulate.build`.
+        Naming the field: ``sampling`` not one of :data:`SAMPLINGS`, ``substeps`` below 1, a
+        ``speed_profile`` field outside its range, and the operating point and fault checks of
+        :func:`simulate.build`.
     """
     if sampling not in SAMPLINGS:
         raise ValueError(f"sampling: {sampling!r} not one of {', '.join(SAMPLINGS)}")
@@ -137,6 +151,10 @@ def make_record(
     gb = gearbox or Gearbox()
     fl = [parse_fault(f) if isinstance(f, str) else f for f in faults]
     setup = build(gb, speed_rpm, temperature_c, fl)
+    if isinstance(speed_profile, dict):
+        speed_profile = SpeedProfile(**speed_profile)
+    if speed_profile is not None:
+        setup.profile = speed_profile.vector(duration_s)
     channels = CHANNELS + HOUSING_CHANNELS if housing else CHANNELS
     if sampling == "daq":
         clean = acquire(setup, duration_s, sample_rate_hz, substeps, housing=housing)
@@ -176,6 +194,7 @@ def make_record(
         loss,
         sampling,
         substeps,
+        speed_profile,
     )
 
 

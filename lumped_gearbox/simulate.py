@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,6 +25,7 @@ from lumped_gearbox.faults import (
 )
 from lumped_gearbox.mesh import RELIEF_CYCLES, pair_amplitude
 from lumped_gearbox.params import Gearbox, springs, thermal_axial_load, thermal_half_backlash
+from lumped_gearbox.speed_profile import N_PROFILE
 
 CHANNELS = ("dte", "bearing2_fx", "bearing2_fy", "bearing2_fz", "node5_ax", "node5_ay")
 UNITS = {"dte": "m", "bearing2_fx": "N", "bearing2_fy": "N", "bearing2_fz": "N"}
@@ -48,6 +49,8 @@ class Setup:
     axial_half: float
     speed_rpm: float = 0.0
     bearing_defects: tuple[BearingDefect, ...] = ()
+    #: input speed profile vector (``speed_profile.SpeedProfile.vector``); zeros: constant speed
+    profile: np.ndarray = field(default_factory=lambda: np.zeros(N_PROFILE))
 
     def static_state(self) -> np.ndarray:
         """Static equilibrium at the mean mesh stiffness without STE (q, 8 entries)."""
@@ -187,6 +190,7 @@ def integrate_from_rest(
         setup.tooth_p,
         setup.tooth_g,
         n_skip,
+        setup.profile,
     )
     if out.shape[0] != n_out:
         raise RuntimeError("lumped model diverged (non-finite state); reduce the time step (substeps)")
@@ -232,7 +236,16 @@ def channels(setup: Setup, out: np.ndarray, t: np.ndarray) -> dict[str, np.ndarr
     pulses = np.zeros((t.size, 2))
     load_angle = math.atan2(-ca, -sa)  # direction of bearing 2's static load on the housing
     for i, d in enumerate(setup.bearing_defects):
-        pulses += defect_forces(d.kind, d.force_n, d.defect_angle_rad, setup.speed_rpm, t, load_angle, seed=i)
+        pulses += defect_forces(
+            d.kind,
+            d.force_n,
+            d.defect_angle_rad,
+            setup.speed_rpm,
+            t,
+            load_angle,
+            seed=i,
+            profile=setup.profile,
+        )
     crack = np.zeros((t.size, 2))  # a cracked pinion shaft's extra restoring force (shaft_faults.py)
     if setup.fault[mdl.F_CRACK] > 0.0 and setup.fault[mdl.F_CRACK_GEAR] < 0.5:
         loss_k = setup.fault[mdl.F_CRACK] * kk[mdl.K_L1]

@@ -1,6 +1,9 @@
 """The contract's checks on the data once read: the time axis, gaps and NaN runs (never
 interpolated: an error or the longest clean segment), non-physical magnitudes, isolated
-spikes, and the conversion to SI (moved from ``measurement.py`` in session 16, unchanged).
+spikes, and the conversion to SI (moved from ``measurement.py`` in session 16). Session 18 added
+acquisition dropouts and repeated blocks (``measurement_dropouts.py``, treated like NaN runs) and
+impulsive interference within the signal's range (``measurement_impulses.py``, replaced by AR
+interpolation and named in ``issues``).
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ from gear_rotor_sim.calibration.measurement_contract import (
     _err,
     unit_factor,
 )
+from gear_rotor_sim.calibration.measurement_dropouts import dropout_problems
+from gear_rotor_sim.calibration.measurement_impulses import repair_spikes
 from gear_rotor_sim.calibration.measurement_sensor_checks import sensor_issues
 
 #: Largest magnitude of a measured sample per dimension (SI), beyond any vibration sensor's range:
@@ -125,6 +130,12 @@ def _finish(
                 f"longest {longest}, first at t = {t0 + first / fs:.6g} s"
             )
             bad |= ~np.isfinite(data[:, k])
+    t_all = time if time is not None else t0 + np.arange(n) / fs
+    held, held_problems = dropout_problems(
+        data, [c.column for c in channels], [SI_UNIT[_dimension(c)] for c in channels], t_all
+    )
+    bad |= held
+    problems.extend(held_problems)
     if problems and nan_policy == "error":
         raise _err(
             src,
@@ -154,6 +165,7 @@ def _finish(
         data = data[best[0] : best[1]]
         t0 = float(time[best[0]]) if time is not None else t0 + best[0] / fs
     data = _replace_spikes(data, channels, t0, fs, issues)
+    data = repair_spikes(data, channels, t0, fs, issues)
     issues.extend(sensor_issues(data, channels, [SI_UNIT[_dimension(c)] for c in channels]))
     return Measurement(src, fs, float(t0), np.ascontiguousarray(data, float), channels, op, gearbox, issues)
 

@@ -127,7 +127,13 @@ def write_report(
         f"# Calibration report: `{Path(m.source).name}`",
         "",
         f"- Operating point ({declared}): {op.speed_rpm:g} rpm, {op.temperature_c:g} degC"
-        + (f", output torque {op.output_torque_nm:g} N m" if op.output_torque_nm is not None else ""),
+        + (f", output torque {op.output_torque_nm:g} N m" if op.output_torque_nm is not None else "")
+        + "".join(
+            " (measured from the radial bearing-force means, declared "
+            f"{b.parameters['declared_output_torque_nm']:g} N m)"
+            for b in result.baseline_updates
+            if b.name == "operating_torque"
+        ),
         f"- Model: `{m.gearbox}`; {m.n_samples} samples at {m.sample_rate_hz:g} Hz ({m.duration_s:.3g} s); "
         f"channels {', '.join(result.comparison.names)}",
         f"- Simulations run: {result.n_simulations}",

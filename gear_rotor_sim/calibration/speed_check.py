@@ -17,6 +17,9 @@ one (issue 11: effects nobody declared; docs/calibration.md Sec. 2 "Speed check"
 * **beyond** ``PLAUSIBLE``: a :class:`MeasurementError` naming ``operating_point.speed_rpm`` (a wrong
   sidecar or gearbox, not a slip).
 
+Before that, a speed that varies within the record is tracked and the record resampled to uniform
+shaft angle at its mean speed (``order_tracking.py``); the mean is then checked as above.
+
 The tolerance is the speed error that changes no synchronous feature by more than 0.1 %: over the
 record's ``n_rev`` input revolutions the highest order feature ``K = 3 z + 6`` (``residual.py``) drifts
 in phase by ``2 pi K eps n_rev`` at a relative error ``eps``, and its synchronous average keeps
@@ -35,6 +38,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from gear_rotor_sim.calibration.measurement import Measurement, MeasurementError
+from gear_rotor_sim.calibration.order_tracking import SpeedVariation, check_speed_variation
 from gear_rotor_sim.calibration.speed_estimate import (
     SpeedEstimate,
     estimate_speed,
@@ -65,13 +69,16 @@ class SpeedCheck:
     corrected : bool
         Whether the calibration runs at the measured speed.
     declared : Measurement
-        The measurement as loaded (declared speed).
+        The measurement as loaded (declared speed; in the angle domain when its speed varies).
+    variation : SpeedVariation or None
+        The varying-speed check run first (``order_tracking.py``).
     """
 
     estimate: SpeedEstimate
     tolerance_rpm: float
     corrected: bool
     declared: Measurement
+    variation: SpeedVariation | None = None
 
     @property
     def limit_rpm(self) -> float:
@@ -123,12 +130,14 @@ def check_operating_speed(measurement: Measurement, cfg: Any) -> tuple[Measureme
     orders = mesh_orders_per_input(cfg)
     if not orders:
         return measurement, None
+    # a speed varying within the record: read in the angle domain at its mean speed first
+    measurement, variation = check_speed_variation(measurement, cfg)
     declared = measurement.operating_point.speed_rpm
     est = estimate_speed(
         measurement.data, measurement.sample_rate_hz, declared, orders, slowest_shaft_ratio(cfg)
     )
     tol = feature_tolerance_rpm(cfg, declared, measurement.duration_s)
-    check = SpeedCheck(est, tol, False, measurement)
+    check = SpeedCheck(est, tol, False, measurement, variation)
     if est.measured_rpm is None:
         measurement.issues.append(
             f"operating_point.speed_rpm: not checked against the record ({est.reason}); the declared "

@@ -84,8 +84,24 @@ def main() -> None:
     r[200:202, 2] = -9.0e5  # two samples of -900 kN on an 800 N force
     case("double_spike", "ok", r"column 'bearing2_fx': 1 isolated spike\(s\)", csv_text(r))
     r = rows.copy()
-    r[50:60, 1] = 300.0  # ten samples far out: kept and reported, not interpolated
+    r[50:60, 1] = 300.0 + 0.1 * np.arange(10)  # ten samples far out: kept and reported, not interpolated
     case("long_excursion", "ok", r"column 'dte': 1 excursion\(s\) beyond 100 robust scales kept", csv_text(r))
+    r = rows.copy()
+    r[100:120, 2] = r[99, 2]  # the acquisition repeats its last value (a dropout): like a NaN run
+    case(
+        "held_value",
+        "error",
+        r"column 'bearing2_fx': holds the value \d+\.\d+ N for 21 samples \(0.021 s\) from t = 0.099 s",
+        csv_text(r),
+    )
+    r = rows.copy()
+    r[200:240, 1:] = r[160:200, 1:]  # a buffer delivered twice, the time column running on
+    case(
+        "repeated_block",
+        "error",
+        r"rows at t = 0.2 .. 0.239 s repeat, on every column, the 40 samples",
+        csv_text(r),
+    )
     r = rows.copy()
     r[77, 1] = 1e300
     case(

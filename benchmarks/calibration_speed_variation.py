@@ -1,0 +1,202 @@
+"""Calibration of records whose input speed varies within the record (issue 11: effects nobody declared).
+
+``lumped_gearbox`` makes each record with a speed profile (``make_record(..., speed_profile=...)``,
+docs/independent_data.md "Speed profile"): a linear drift of ``+-0.5 %`` or ``+-1.5 %`` over the record
+(centred: the declared speed is the mean) or a fluctuation of 0.5 % at 2 Hz. The sidecar declares the
+mean speed and says nothing of the variation (``.truth.json`` holds the profile). Records: the table's
+3000 rpm faults (healthy, pinion tooth, gear tooth, pinion eccentricity, unbalance, gear misalignment,
+wear, outer race, ball) with each profile, and at 8000 rpm (teeth separating) the healthy record and
+the pinion tooth with a +1.5 % drift and the fluctuation. Each record is diagnosed by
+``gear-rotor-sim calibrate RECORD --json`` and, unless ``--no-baseline``, with ``--baseline`` (the
+table's constant-speed healthy 2000 rpm record of the same machine).
+
+Usage::
+
+    python benchmarks/calibration_speed_variation.py [--out DIR] [--cases SUBSTR ...] [--profiles TAG ...]
+        [--no-baseline | --only-baseline] [--duration-s S]
+
+Prints one Markdown table per variant: the profile, the speed variation the report names (its
+``issues`` line: range, drift, fluctuation; "-" when none), the first effect, its main parameter error,
+the error before/after and the verdict by the issue-11 criteria of ``calibration_independent.judge``
+(named first on the right wheel and tooth, within 25 %, error halved; healthy: nothing claimed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import calibration_independent as ci
+import calibration_speed_error as se
+
+from lumped_gearbox import CONTACT_RPM, RATTLE_RPM, make_record, write_record
+
+#: the table's faults at 3000 rpm (its severities) and the healthy control
+FAULTS_3000: list[tuple[str, str | None]] = [
+    ("healthy", None),
+    ("tooth_pinion", ci.FAULTS[0]),
+    ("tooth_gear", ci.FAULTS[1]),
+    ("pinion_eccentricity", ci.FAULTS[2]),
+    ("unbalance", ci.FAULTS[4]),
+    ("gear_misalignment", ci.FAULTS[5]),
+    ("tooth_wear", ci.FAULTS[6]),
+    ("outer_race", ci.FAULTS[8]),
+    ("ball", ci.FAULTS[10]),
+]
+#: speed profiles (tag, lumped_gearbox speed_profile fields)
+PROFILES: list[tuple[str, dict[str, float]]] = [
+    ("drift+0.5", {"drift_pct": 0.5}),
+    ("drift-0.5", {"drift_pct": -0.5}),
+    ("drift+1.5", {"drift_pct": 1.5}),
+    ("drift-1.5", {"drift_pct": -1.5}),
+    ("fluct0.5at2Hz", {"fluctuation_pct": 0.5, "fluctuation_hz": 2.0}),
+]
+#: at the rattle point (8000 rpm): healthy and the pinion tooth, +1.5 % drift and the fluctuation
+RATTLE: list[tuple[str, str | None]] = [("healthy", None), ("tooth_pinion", ci.FAULTS[0])]
+RATTLE_PROFILES = ["drift+1.5", "fluct0.5at2Hz"]
+#: seeds: 701 + 10 x (fault index) + (profile index); 8000 rpm: 801 + 10 x (fault index) + (profile index)
+SEED0, RATTLE_SEED0 = 701, 801
+
+
+@dataclass(frozen=True)
+class VarCase:
+    tag: str
+    speed_rpm: float
+    fault: str | None
+    profile: str
+    seed: int
+
+    def table_case(self) -> ci.Case:
+        """The table's case type for ``ci.judge``."""
+        return ci.Case(self.tag, self.speed_rpm, 25.0, self.fault, self.seed)
+
+
+def cases(profiles: list[str] | None = None) -> list[VarCase]:
+    """The records (healthy first at each speed); ``profiles``: only these profile tags."""
+    names = [p for p, _ in PROFILES]
+    out: list[VarCase] = []
+    for fi, (name, fault) in enumerate(FAULTS_3000):
+        for pi, p in enumerate(names):
+            out.append(VarCase(f"c3000_{name}_{p}", CONTACT_RPM, fault, p, SEED0 + 10 * fi + pi))
+    for fi, (name, fault) in enumerate(RATTLE):
+        for p in RATTLE_PROFILES:
+            seed = RATTLE_SEED0 + 10 * fi + names.index(p)
+            out.append(VarCase(f"r8000_{name}_{p}", RATTLE_RPM, fault, p, seed))
+    if profiles is not None:
+        out = [c for c in out if c.profile in profiles]
+    return out
+
+
+def make(case: VarCase, out: Path, duration_s: float) -> Path:
+    """The record with its speed profile; the sidecar declares the mean speed only."""
+    csv = out / f"{case.tag}.csv"
+    if csv.exists():
+        return csv
+    rec = make_record(
+        case.speed_rpm,
+        25.0,
+        [case.fault] if case.fault else [],
+        duration_s=duration_s,
+        seed=case.seed,
+        speed_profile=dict(PROFILES)[case.profile],
+    )
+    return write_record(csv, rec)
+
+
+def _variation(res: dict[str, Any]) -> str:
+    """The report's varying-speed line, shortened: range, drift, fluctuation ("-" when none)."""
+    for s in res.get("issues") or []:
+        if "speed varies within the record" in s:
+            m = re.search(r"\(range ([^ ]+) %.*drift ([^ ]+) %.*fluctuation ([^ ]+) % at ([^ ]+) Hz", s)
+            return f"range {m[1]} %, drift {m[2]} %, {m[3]} % at {m[4]} Hz" if m else "named"
+    return "-"
+
+
+def row(case: VarCase, res: dict[str, Any], variant: str) -> dict[str, Any]:
+    """The table's verdict of one calibration, with the profile and the variation the report names."""
+    r = ci.judge(case.table_case(), res)
+    r.update(variant=variant, profile=case.profile, variation=_variation(res))
+    return r
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    head = (
+        "| record | truth | profile | variation named | first effect | main parameter (error) | "
+        "E before -> after | verdict | CPU (s) |\n|---|---|---|---|---|---|---|---|---|\n"
+    )
+    lines = []
+    for r in rows:
+        par = "-"
+        if "param" in r:
+            par = f"{r['param']} {ci._fmt(r.get('fitted'))} / {ci._fmt(r.get('truth_value'))} "
+            par += f"({ci._fmt(r.get('rel_error'), '+.0%')})"
+            if r.get("tooth"):
+                par += f", tooth {r['tooth'][0]} / {r['tooth'][1]}"
+        lines.append(
+            f"| {r['record']} | `{r['truth']}` | {r['profile']} | {r['variation']} | {r.get('first', '-')} | "
+            f"{par} | {ci._fmt(r.get('error_before'))} -> {ci._fmt(r.get('error_after'))} | {r['verdict']} | "
+            f"{ci._fmt(r.get('cpu_s'), '.0f')} |"
+        )
+    return head + "\n".join(lines) + "\n"
+
+
+def _reference(out: Path, duration_s: float) -> Path:
+    """The table's healthy 2000 rpm reference (constant speed), its baseline fitted once."""
+    from gear_rotor_sim.calibration.baseline import fit_reference_baseline
+    from gear_rotor_sim.calibration.measurement import load_measurement
+
+    sp, tc = ci.BASELINE
+    case = ci.Case(f"baseline_{sp:.0f}rpm_{tc:.0f}C", sp, tc, None, 999)
+    csv = out / f"{case.tag}.csv"
+    if not csv.exists():
+        ci.make(case, out, duration_s)
+    dst = out / f"{case.tag}.reference.json"
+    if not dst.exists():
+        fit_reference_baseline(load_measurement(csv), source=str(csv)).save(dst)
+    return dst
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default="out/calibration_speed_variation", help="records and results directory")
+    ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
+    ap.add_argument(
+        "--profiles",
+        nargs="*",
+        default=None,
+        help=f"only these profiles ({', '.join(p for p, _ in PROFILES)})",
+    )
+    ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
+    ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
+    ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    todo = [c for c in cases(args.profiles) if not args.cases or any(s in c.tag for s in args.cases)]
+    if not todo:
+        print("no case matches --cases / --profiles", file=sys.stderr)
+        return 2
+    t0 = time.perf_counter()
+    load0 = os.getloadavg()[0]
+    for c in todo:
+        make(c, out, args.duration_s)
+    variants: list[tuple[str, Path | None, bool]] = []
+    if not args.only_baseline:
+        variants.append(("no reference", None, True))
+    if not args.no_baseline:
+        ref = _reference(out, 2.0)
+        variants.append((f"--baseline healthy {ci.BASELINE[0]:g} rpm (constant speed)", ref, True))
+    se.run_variants(variants, todo, out, row, table, "--no-speed-check", t0, load0)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

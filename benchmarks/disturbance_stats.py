@@ -1,0 +1,155 @@
+"""The acquisition-disturbance checks' statistics on the benchmark records: none may fire (issue 11).
+
+For the 71 records of the issue-11 benchmarks (28 of the table, its 2 references, 41 held out: the same
+generator calls, seeds and sampling as ``calibration_independent.py`` / ``calibration_heldout.py``), the
+4 CWRU files when present, and optionally the disturbed records of ``calibration_undeclared.py``, load each
+record as ``gear-rotor-sim calibrate`` does and print per record the margins of the checks of
+``calibration/measurement_impulses.py`` and ``measurement_dropouts.py``: the largest interpolation error
+(robust scales of the AR interpolation error) and the count beyond the threshold per channel, the longest
+run of equal samples, repeated blocks, and whether loading added an ``issues`` entry. Records are written
+to ``--out`` once and reused. Docs: docs/history/calibration_sessions.md Sec. 8.47.
+
+Usage::
+
+    python benchmarks/disturbance_stats.py [--out DIR] [--cases SUBSTR ...] [--undeclared] [--no-cwru]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import calibration_heldout as ch
+import calibration_independent as ci
+import calibration_undeclared as cu
+
+from gear_rotor_sim.calibration import measurement_impulses as mi
+from gear_rotor_sim.calibration.measurement import load_measurement
+from gear_rotor_sim.calibration.measurement_dropouts import equal_runs, held_runs, repeated_blocks
+
+
+def records(out: Path, undeclared: bool) -> list[tuple[str, Path, Any]]:
+    """(tag, CSV path, maker) of every record: the maker writes the CSV (once: it is reused)."""
+    held = out / "heldout"
+    todo: list[tuple[str, Path, Any]] = [
+        (c.tag, out / f"{c.tag}.csv", lambda c=c: ci.make(c, out, 2.0)) for c in ci.cases(False)
+    ]
+    for sp, tc in (ci.BASELINE, ci.BASELINE_ALT):
+        ref = ci.Case(f"baseline_{sp:.0f}rpm_{tc:.0f}C", sp, tc, None, 999)
+        todo.append((ref.tag, out / f"{ref.tag}.csv", lambda c=ref: ci.make(c, out, 2.0)))
+    held.mkdir(parents=True, exist_ok=True)
+    for h in ch.cases():
+        todo.append((f"heldout_{h.tag}", held / f"{h.tag}.csv", lambda h=h: ch.make(h, held, 2.0)))
+    if undeclared:
+        for c in cu.cases():
+            todo.append((f"undeclared_{c.tag}", out / f"{c.tag}.csv", lambda c=c: cu.make(c, out)))
+    return todo
+
+
+def _unrepaired(path: Path) -> np.ndarray:
+    """A CWRU file's SI data as loaded, without the spike repair (the detector's input)."""
+    from unittest import mock
+
+    from gear_rotor_sim.calibration import measurement_checks
+    from gear_rotor_sim.calibration.cwru import CWRU_MAPPING
+    from gear_rotor_sim.calibration.measurement_files import load_mat
+
+    with mock.patch.object(measurement_checks, "repair_spikes", lambda d, *a: d):
+        return load_mat(path, CWRU_MAPPING).data
+
+
+def stats(csv: Path) -> dict[str, Any]:
+    """The checks' margins on one record, loaded as the calibration loads it."""
+    t = time.process_time()
+    try:
+        if csv.suffix == ".mat":
+            from gear_rotor_sim.calibration.cwru import CWRU_MAPPING
+            from gear_rotor_sim.calibration.measurement_files import load_mat
+
+            m = load_mat(csv, CWRU_MAPPING)
+        else:
+            m = load_measurement(csv)
+    except Exception as exc:
+        return {"refused": str(exc)[:160]}
+    raw = np.loadtxt(csv, delimiter=",", skiprows=1)[:, 1:] if csv.suffix == ".csv" else _unrepaired(csv)
+    row: dict[str, Any] = {"issues": len(m.issues), "issue_text": [i[:90] for i in m.issues]}
+    peaks, counts, random, longest = [], [], [], []
+    fs = m.sample_rate_hz
+    for k in range(m.data.shape[1]):
+        x = raw[:, k]
+        fitted = mi.channel_zscores(x) if np.all(np.isfinite(x)) else None
+        peaks.append(float(np.max(np.abs(fitted[2]))) if fitted is not None else 0.0)
+        spikes, _ = mi.find_spikes(x)
+        counts.append(int(spikes.starts.size))
+        random.append(int(mi._interference(spikes, fs, x.size / fs).size) if spikes.starts.size else 0)
+        runs = equal_runs(raw[:, k]) if raw.shape[0] > 1 else []
+        longest.append(max((r[1] for r in runs), default=1))
+        if held_runs(raw[:, k]):
+            row.setdefault("held", []).append(m.channels[k].column)
+    row.update(peak_z=peaks, n_spikes=counts, n_random=random, longest_equal=longest)
+    row["repeats"] = len(repeated_blocks(raw[np.all(np.isfinite(raw), axis=1)]))
+    row["cpu_s"] = time.process_time() - t
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default="out/disturbance_stats", help="records directory (reused)")
+    ap.add_argument("--cases", nargs="*", default=None, help="only records whose tag contains one of these")
+    ap.add_argument("--undeclared", action="store_true", help="also the disturbed records")
+    ap.add_argument("--no-cwru", action="store_true", help="skip the CWRU files")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    todo = records(out, args.undeclared)
+    if args.cases:
+        todo = [r for r in todo if any(s in r[0] for s in args.cases)]
+    if not args.no_cwru:
+        from gear_rotor_sim.calibration.cwru import CWRU_FILES, cwru_data_dir
+
+        repo = Path(__file__).resolve().parents[1]
+        dirs = (cwru_data_dir(repo), repo.parents[1] / "shared" / "data" / "cwru")
+        data = next((d for d in dirs if d.is_dir()), repo)
+        todo += [(f"cwru_{n}", data / n, None) for n in CWRU_FILES if (data / n).exists()]
+    load0 = os.getloadavg()[0]
+    print(
+        "| record | issues | largest interpolation error per channel (robust scales) | isolated "
+        f"spikes >= {mi.Z_SPIKE:g} | of them at random times | longest equal run | held | repeated blocks |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    worst = 0.0
+    fired = 0
+    for tag, csv, maker in todo:
+        if not csv.exists():
+            maker()
+        s = stats(csv)
+        if "refused" in s:
+            print(f"| {tag} | refused: {s['refused']} | | | | | | |")
+            continue
+        fires = s["issues"] > 0 or s.get("held") or s["repeats"] or max(s["n_random"]) >= mi.MIN_EVENTS
+        fired += bool(fires)
+        worst = max(worst, *s["peak_z"]) if not tag.startswith("undeclared") else worst
+        print(
+            f"| {tag} | {s['issues']} | {', '.join(f'{z:.1f}' for z in s['peak_z'])} | "
+            f"{', '.join(map(str, s['n_spikes']))} | {', '.join(map(str, s['n_random']))} | "
+            f"{max(s['longest_equal'])} | {s.get('held', '-')} | "
+            f"{s['repeats']} |",
+            flush=True,
+        )
+    print(
+        f"\n{len(todo)} records, {fired} with a finding; largest interpolation error, undisturbed records: "
+        f"{worst:.1f} robust scales; load {load0:.1f} -> {os.getloadavg()[0]:.1f}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
