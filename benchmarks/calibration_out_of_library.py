@@ -97,13 +97,11 @@ def judge(case: ci.Case, res: dict[str, Any]) -> dict[str, Any]:
 
 
 def _job(args: tuple[ci.Case, str, float, str | None]) -> dict[str, Any]:
-    case, out, duration, baseline = args
-    csv = Path(out) / f"{case.tag}.csv"
-    if not csv.exists():
-        ci.make(case, Path(out), duration)
-    res = ci.calibrate(csv, Path(baseline) if baseline else None)
-    (Path(out) / f"{case.tag}{'.baseline' if baseline else ''}.calibration.json").write_text(
-        json.dumps(res, indent=1, default=str)
+    """The table's job (record, calibration, saved ``<tag>[.baseline].calibration.json``), judged here."""
+    ci._job(args)
+    case, out, _, baseline = args
+    res = json.loads(
+        (Path(out) / f"{case.tag}{'.baseline' if baseline else ''}.calibration.json").read_text()
     )
     row = judge(case, res)
     row["baseline"] = Path(baseline).name if baseline else None
