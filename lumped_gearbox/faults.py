@@ -32,7 +32,16 @@ phase_rad)                  approach differs by ``angle * xi`` across the face (
 defect_angle_rad)           housing; 1 % random slip of the ball passes (Antoni & Randall 2002)
 ``bearing_stiffness``       all four bearings' radial and axial stiffness times ``scale``
 (scale)
+``shaft_crack``             NOT in the FE library: a breathing transverse crack on that shaft
+(shaft, stiffness_loss,     (Gasch's switching crack): while the crack's mouth is on the tension
+phase_rad)                  side the shaft's lateral stiffness normal to the crack drops by
+                            ``stiffness_loss`` (fraction); 1x, 2x, 3x of that shaft
+``cardan_misalignment``     NOT in the FE library: the motor drives the input shaft through a
+(angle_rad, phase_rad)      Cardan (Hooke's) joint bent by ``angle_rad``: the driven end turns
+                            ``~ angle^2 / 4 sin(2 psi)`` off uniform; even input orders, torsional
 ==========================  =====================================================================
+
+The physics and derivations of the two out-of-library faults: ``shaft_faults.py``.
 """
 
 from __future__ import annotations
@@ -154,6 +163,35 @@ class BearingStiffness:
         _range("bearing_stiffness.scale", self.scale, 0.1, 10.0)
 
 
+@dataclass(frozen=True)
+class ShaftCrack:
+    shaft: str = "pinion"
+    stiffness_loss: float = 0.0
+    phase_rad: float = 0.0
+    name = "shaft_crack"
+    main = "stiffness_loss"
+
+    def __post_init__(self) -> None:
+        if self.shaft not in ("pinion", "gear"):
+            raise ValueError(f"shaft_crack.shaft: {self.shaft!r} is not one of ['pinion', 'gear']")
+        _range("shaft_crack.stiffness_loss", self.stiffness_loss, 0.0, 0.5)
+
+
+@dataclass(frozen=True)
+class CardanMisalignment:
+    angle_rad: float = 0.0
+    phase_rad: float = 0.0
+    name = "cardan_misalignment"
+    main = "angle_rad"
+
+    def __post_init__(self) -> None:
+        _range("cardan_misalignment.angle_rad", self.angle_rad, 0.0, 0.35)
+
+
+#: faults of this generator that the FE effect library does not model
+#: (benchmarks/calibration_out_of_library.py)
+OUT_OF_LIBRARY = ("shaft_crack", "cardan_misalignment")
+
 Fault = (
     ToothDamage
     | Eccentricity
@@ -162,6 +200,8 @@ Fault = (
     | ToothWear
     | TemperatureOffset
     | BearingStiffness
+    | ShaftCrack
+    | CardanMisalignment
 )
 
 FAULT_NAMES = (
@@ -176,6 +216,8 @@ FAULT_NAMES = (
     "inner_race_defect",
     "ball_defect",
     "bearing_stiffness",
+    "shaft_crack",
+    "cardan_misalignment",
 )
 
 
@@ -200,6 +242,8 @@ def make_fault(name: str, **params: Any) -> Fault:
             "tooth_wear": ToothWear,
             "temperature_offset": TemperatureOffset,
             "bearing_stiffness": BearingStiffness,
+            "shaft_crack": ShaftCrack,
+            "cardan_misalignment": CardanMisalignment,
         }
         if name not in table:
             raise ValueError(f"fault: unknown name {name!r}; allowed: {list(FAULT_NAMES)}")

@@ -11,7 +11,7 @@ the bearings' dampers act on the wheel's lateral/axial motion.
                + c_m f_c d(delta)/dt                                              (mesh force)
     m1 x1''  = -k_l x1 - c_l x1' - F_m sin(a) + f_p,x(t)       (and y with cos(a))
     m1 z1''  = -k_z z1 - c_z z1' - F_m g(t)
-    J1 th1'' = -k_t th1 - c_t th1' - F_m rb1
+    J1 th1'' = -k_t (th1 - D(t)) - c_t (th1' - D'(t)) - F_m rb1  (D: Cardan joint lag, else 0)
     m2 x2''  = -k_l x2 - c_l x2' + F_m sin(a) + f_g,x(t)       (and y)
     m2 z2''  = -k_z z2 - c_z z2' + F_m g(t)
     J2 q2''  = T2 - F_m rb2
@@ -21,6 +21,8 @@ misalignment wobble angle, ``f_c`` the fraction of face slices in contact. With 
 (``speed_profile.py``) the input end turns by ``psi(t)`` instead of ``w1 t``: ``u = z1 psi / 2 pi``, the
 wheels' angles and rotating forces follow ``psi`` and ``psi'``, and ``-psi''`` (pinion) and
 ``+psi'' z1 / z2`` (gear) join the torsional accelerations (coordinates relative to the driven rotation).
+A breathing shaft crack adds ``dk (n . d)_+ n`` to that wheel's lateral force ``f_p`` / ``f_g``
+(``shaft_faults.py``).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 from numba import njit
 
 from lumped_gearbox.mesh import pair_shape
+from lumped_gearbox.shaft_faults import cardan_lag, crack_force
 
 # indices of the parameter vectors (grouped by role)
 G_Z1, G_Z2, G_EPS, G_RB1, G_RB2, G_SA, G_CA, G_W1, G_W2, G_PITCH, G_FACE, G_RELIEF = range(12)
@@ -51,7 +54,12 @@ L_T2, L_B, L_E0, L_EPH = range(4)
     F_MIS_PH,
     F_MIS_GEAR,
     F_WEAR,
-) = range(12)
+    F_CRACK,
+    F_CRACK_PH,
+    F_CRACK_GEAR,
+    F_CARDAN,
+    F_CARDAN_PH,
+) = range(17)
 N_SLICES = 9
 N_OUT = 26  # q (8), v (8), a (8), mesh force, mesh stiffness
 
@@ -168,10 +176,23 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
         F_ECC_G
     ] * w2 * w2 * math.sin(pg)
     fax = fm * gam
+    if fault[F_CRACK] > 0.0:  # breathing shaft crack (shaft_faults.py)
+        if fault[F_CRACK_GEAR] > 0.5:
+            cx, cy = crack_force(q[4], q[5], psi2 + fault[F_CRACK_PH], -1.0, fault[F_CRACK] * kk[K_L2])
+            fgx += cx
+            fgy += cy
+        else:
+            cx, cy = crack_force(q[0], q[1], psi1 + fault[F_CRACK_PH], 1.0, fault[F_CRACK] * kk[K_L1])
+            fpx += cx
+            fpy += cy
+    tors = -kk[K_T1] * q[3] - cc[C_T1] * v[3]
+    if fault[F_CARDAN] > 0.0:  # Cardan joint at the input (shaft_faults.py)
+        lag, rate = cardan_lag(psi1 + fault[F_CARDAN_PH], fault[F_CARDAN], w1)
+        tors = -kk[K_T1] * (q[3] - lag) - cc[C_T1] * (v[3] - rate)
     a[0] = (-kk[K_L1] * q[0] - cc[C_L1] * v[0] - fm * sa + fpx) / mass[M_M1]
     a[1] = (-kk[K_L1] * q[1] - cc[C_L1] * v[1] - fm * ca + fpy) / mass[M_M1]
     a[2] = (-kk[K_Z1] * q[2] - cc[C_Z1] * v[2] - fax) / mass[M_M1]
-    a[3] = (-kk[K_T1] * q[3] - cc[C_T1] * v[3] - fm * rb1) / mass[M_J1]
+    a[3] = (tors - fm * rb1) / mass[M_J1]
     a[4] = (-kk[K_L2] * q[4] - cc[C_L2] * v[4] + fm * sa + fgx) / mass[M_M2]
     a[5] = (-kk[K_L2] * q[5] - cc[C_L2] * v[5] + fm * ca + fgy) / mass[M_M2]
     a[6] = (-kk[K_Z2] * q[6] - cc[C_Z2] * v[6] + fax) / mass[M_M2]

@@ -13,10 +13,12 @@ from lumped_gearbox.bearing import defect_forces
 from lumped_gearbox.faults import (
     BearingDefect,
     BearingStiffness,
+    CardanMisalignment,
     Eccentricity,
     Fault,
     GearMisalignment,
     MassUnbalance,
+    ShaftCrack,
     TemperatureOffset,
     ToothDamage,
     ToothWear,
@@ -127,7 +129,7 @@ def build(
     load = np.array(
         [gb.output_torque_nm, thermal_half_backlash(gb, temp, wear), gb.ste_amplitude_m if ste else 0.0, 0.0]
     )
-    fault = np.zeros(12)
+    fault = np.zeros(17)
     fault[mdl.F_WEAR] = wear
     tooth_p = np.ones(gb.z1)
     tooth_g = np.ones(gb.z2)
@@ -144,6 +146,11 @@ def build(
         elif isinstance(f, GearMisalignment):
             fault[mdl.F_MIS], fault[mdl.F_MIS_PH] = f.angle_rad, f.phase_rad
             fault[mdl.F_MIS_GEAR] = 1.0 if f.member == "gear" else 0.0
+        elif isinstance(f, ShaftCrack):
+            fault[mdl.F_CRACK], fault[mdl.F_CRACK_PH] = f.stiffness_loss, f.phase_rad
+            fault[mdl.F_CRACK_GEAR] = 1.0 if f.shaft == "gear" else 0.0
+        elif isinstance(f, CardanMisalignment):
+            fault[mdl.F_CARDAN], fault[mdl.F_CARDAN_PH] = f.angle_rad, f.phase_rad
     return Setup(
         geo,
         mass,
@@ -239,6 +246,12 @@ def channels(setup: Setup, out: np.ndarray, t: np.ndarray) -> dict[str, np.ndarr
             seed=i,
             profile=setup.profile,
         )
+    crack = np.zeros((t.size, 2))  # a cracked pinion shaft's extra restoring force (shaft_faults.py)
+    if setup.fault[mdl.F_CRACK] > 0.0 and setup.fault[mdl.F_CRACK_GEAR] < 0.5:
+        loss_k = setup.fault[mdl.F_CRACK] * kk[mdl.K_L1]
+        psi = g[mdl.G_W1] * t + setup.fault[mdl.F_CRACK_PH]
+        n = np.column_stack([np.cos(psi), np.sin(psi)])  # crack_force, vectorised
+        crack = loss_k * np.maximum(np.sum(n * q[:, 0:2], axis=1), 0.0)[:, None] * n
     dte = (
         sa * (q[:, 0] - q[:, 4]) + ca * (q[:, 1] - q[:, 5]) + g[mdl.G_RB1] * q[:, 3] + g[mdl.G_RB2] * q[:, 7]
     )
@@ -247,8 +260,8 @@ def channels(setup: Setup, out: np.ndarray, t: np.ndarray) -> dict[str, np.ndarr
         "dte": dte,
         # force transmitted to the housing by bearing 2 (input shaft, node 9): half the shaft's force
         # plus the pulses of bearing defects (between race and housing)
-        "bearing2_fx": 0.5 * (kk[mdl.K_L1] * q[:, 0] + cc[mdl.C_L1] * v[:, 0]) + pulses[:, 0],
-        "bearing2_fy": 0.5 * (kk[mdl.K_L1] * q[:, 1] + cc[mdl.C_L1] * v[:, 1]) + pulses[:, 1],
+        "bearing2_fx": 0.5 * (kk[mdl.K_L1] * q[:, 0] - crack[:, 0] + cc[mdl.C_L1] * v[:, 0]) + pulses[:, 0],
+        "bearing2_fy": 0.5 * (kk[mdl.K_L1] * q[:, 1] - crack[:, 1] + cc[mdl.C_L1] * v[:, 1]) + pulses[:, 1],
         "bearing2_fz": setup.thermal_axial_n + setup.axial_half * q[:, 2] + 0.5 * cc[mdl.C_Z1] * v[:, 2],
         "node5_ax": a[:, 0],
         "node5_ay": a[:, 1],

@@ -94,6 +94,7 @@ from gear_rotor_sim.calibration.residual import (
     housing_source,
     time_and_spectrum_errors,
 )
+from gear_rotor_sim.calibration.residual_trace import trace_residual
 from gear_rotor_sim.calibration.search_rounds import examine_round
 from gear_rotor_sim.calibration.speed_check import check_operating_speed, correction_errors, speed_entry
 from gear_rotor_sim.calibration.synthetic import synthetic_measurement
@@ -554,7 +555,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
             baseline_updates.insert(0, speed_entry(self.speed, *speed_errors))
         if self.torque_correction is not None:
             baseline_updates.insert(0, torque_entry(self.torque_correction))
-        return CalibrationResult(
+        result = CalibrationResult(
             self.m,
             found,
             score0,
@@ -575,6 +576,11 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
             self.baseline_reference,
             self.step_choice.as_dict() if self.step_choice is not None else {},
         )
+        # where the final residual is (residual_trace.py): reads the state, changes nothing above
+        result.residual_trace = trace_residual(
+            self, cur_feat, cur_score, rounds, [f.label for f in found], model_after, score0.error
+        )
+        return result
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:
         fs = self.m.sample_rate_hz

@@ -161,6 +161,8 @@ class CalibrationResult:
     baseline_reference: dict[str, Any] = field(default_factory=dict)
     #: the step count of the model runs and the convergence checks that chose it (model_steps.py)
     model_steps: dict[str, Any] = field(default_factory=dict)
+    #: where the final residual is, by channel, family and line (residual_trace.py)
+    residual_trace: dict[str, Any] = field(default_factory=dict)
 
     @property
     def baseline_effects(self) -> list[Effect]:
@@ -228,6 +230,7 @@ class CalibrationResult:
             "notes": self.notes,
             "n_simulations": self.n_simulations,
             **({"model_steps": self.model_steps} if self.model_steps else {}),
+            **({"residual_trace": self.residual_trace} if self.residual_trace else {}),
         }
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from gear_rotor_sim.calibration.fit import CalibrationResult, model_residual_spectra
 from gear_rotor_sim.calibration.residual import envelope_power_spectrum
+from gear_rotor_sim.calibration.residual_trace import trace_markdown
 
 
 def _fmt(v: Any) -> str:
@@ -207,6 +208,7 @@ def write_report(
                 f"{row['error']:.4g} |"
             )
         lines.append("")
+    lines += trace_markdown(result.residual_trace)
     if m.issues or result.notes:
         lines += ["## Data issues and notes", ""] + [f"- {x}" for x in [*m.issues, *result.notes]] + [""]
     if figs:
