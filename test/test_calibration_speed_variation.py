@@ -27,7 +27,11 @@ import numpy as np
 import pytest
 
 from gear_rotor_sim.calibration.measurement import MeasurementError, load_measurement
-from gear_rotor_sim.calibration.order_tracking import check_speed_variation, resample_to_angle
+from gear_rotor_sim.calibration.order_tracking import (
+    SpeedVariation,
+    check_speed_variation,
+    resample_to_angle,
+)
 from gear_rotor_sim.calibration.speed_check import check_operating_speed
 from gear_rotor_sim.calibration.speed_tracking import track_speed
 from gear_rotor_sim.config import load_config
@@ -79,6 +83,10 @@ def test_tracked_angle_and_speed_of_an_analytic_comb_are_within_their_sigmas() -
         np.sqrt(np.mean(serr**2)),
         tr.sigma_speed_rpm,
     )
+    # the variation read back: drift and fluctuation fitted together
+    s = SpeedVariation(tr, 0.0, 0.0).summary()
+    assert abs(s["drift_pct"] - 1.0) < 0.05 and abs(s["fluctuation_pct"] - 0.4) < 0.02, s
+    assert abs(s["fluctuation_hz"] - 3.0) < 0.1, s
     # a constant comb at the same noise: the angle's deviation from a straight line is noise
     flat = track_speed(_comb(_angle(t, 3000.0, 0, 0, 1), 1.0, rng), FS, 3000.0, [29.0], Z_PINION / Z_GEAR)
     assert flat is not None
@@ -141,6 +149,10 @@ def test_lumped_record_with_a_drift_is_tracked_and_resampled(drift_record: Path)
     true = 3000.0 * relative_speed(prof, tr.t)
     serr = (tr.speed_rpm - true)[inner]
     assert np.sqrt(np.mean(serr**2)) < 3.0 * tr.sigma_speed_rpm + 0.003 * 45.0, np.sqrt(np.mean(serr**2))
+    # each channel's path delay against the combination: the bearing forces lag the DTE (measured on one
+    # channel at a time: 1.0-1.2 ms against 0.06 ms, docs/history/calibration_sessions.md Sec. 8.45)
+    d = dict(zip([c.column for c in m.channels], tr.channel_delay_s, strict=True))
+    assert 2e-4 < d["bearing2_fx"] - d["dte"] < 2e-3 and 2e-4 < d["bearing2_fy"] - d["dte"] < 2e-3, d
     s = var.summary()
     assert abs(s["drift_pct"] - 1.5) < 0.05 and abs(s["mean_rpm"] - 3000.0) < 0.1, s
     line = [i for i in m2.issues if "speed varies within the record" in i]

@@ -16,7 +16,9 @@ synchronous average keeps ``|mean exp(i K dtheta)| ~ 1 - K^2 rms(dtheta)^2 / 2``
 3. if it varies, **resamples** every channel to uniform input-shaft angle at the record's mean speed
    (:func:`resample_to_angle`: the sample times where the tracked angle crosses a uniform grid spanning
    the record, each channel read there by a Kaiser-windowed sinc, :data:`SINC_HALF_WIDTH` samples each
-   side: band-limited interpolation, flat within 1e-3 to 0.45 fs, so no content folds), so the model,
+   side: band-limited interpolation, flat within 1e-3 to 0.45 fs, so no content folds; each channel
+   along its own path's angle, the tracked one less its lines' delay times the speed change,
+   :func:`resample_channels`), so the model,
    running at the mean speed, and every feature see a constant-speed record; a line in ``issues`` names
    ``operating_point.speed_rpm`` with the range, the drift and the dominant fluctuation;
 4. **refuses** (:class:`MeasurementError`) a record whose speed range exceeds :data:`MAX_RANGE` of its
@@ -79,27 +81,23 @@ class SpeedVariation:
         return max(K_SIGMA * s, self.tolerance_rad)
 
     def summary(self) -> dict[str, float]:
-        """Range (% of the mean), drift over the record (%, straight line through the speed) and the
-        dominant fluctuation (amplitude % and frequency Hz) of the tracked speed."""
+        """Range (% of the mean), drift over the record (%) and the dominant fluctuation (amplitude % and
+        frequency Hz) of the tracked speed: a straight line and one sinusoid fitted together
+        (:func:`drift_and_fluctuation`)."""
         tr = self.track
         assert tr is not None
         inner = _interior(tr)
         t, v = tr.t[inner], tr.speed_rpm[inner]
         mean = tr.mean_rpm
-        c = np.polyfit(t, v, 1)
-        drift = c[0] * (tr.t[-1] - tr.t[0]) / mean
-        res = v - np.polyval(c, t)
-        spec = np.abs(np.fft.rfft(res * np.hanning(res.size))) * 2.0 / np.sum(np.hanning(res.size))
-        f = np.fft.rfftfreq(res.size, float(t[1] - t[0]))
-        i = int(np.argmax(spec[1:]) + 1) if spec.size > 1 else 0
+        slope, amp, f_hz = drift_and_fluctuation(t, v)
         return {
             "mean_rpm": mean,
             "range_pct": 100.0 * float(np.ptp(v)) / mean,
             "min_pct": 100.0 * (float(v.min()) / mean - 1.0),
             "max_pct": 100.0 * (float(v.max()) / mean - 1.0),
-            "drift_pct": 100.0 * float(drift),
-            "fluctuation_pct": 100.0 * float(spec[i]) / mean,
-            "fluctuation_hz": float(f[i]),
+            "drift_pct": 100.0 * slope * float(tr.t[-1] - tr.t[0]) / mean,
+            "fluctuation_pct": 100.0 * amp / mean,
+            "fluctuation_hz": f_hz,
         }
 
     def describe(self) -> str:
@@ -118,6 +116,32 @@ class SpeedVariation:
         )
 
 
+def drift_and_fluctuation(t: np.ndarray, v: np.ndarray) -> tuple[float, float, float]:
+    """Slope (per s), amplitude and frequency (Hz) of ``v(t) ~ a + b t + c sin(2 pi f t + phi)``: ``f``
+    from the Hann spectrum (zero-padded 8x) of the straight line's residual, refined on a grid of +-1 bin
+    by the joint least-squares fit's residual (a straight line alone reads part of a sinusoid as a drift)."""
+    tc = t - t.mean()
+    c = np.polyfit(tc, v, 1)
+    res = v - np.polyval(c, tc)
+    n = res.size
+    spec = np.abs(np.fft.rfft(res * np.hanning(n), 8 * n))
+    f = np.fft.rfftfreq(8 * n, float(t[1] - t[0]))
+    lo = 8  # one unpadded bin: below it a sinusoid is a drift
+    if spec.size <= lo + 1:
+        return float(c[0]), 0.0, 0.0
+    f0 = float(f[lo + int(np.argmax(spec[lo:]))])
+    best = (np.inf, float(c[0]), 0.0, f0)
+    for fk in f0 + np.linspace(-1.0, 1.0, 41) / float(t[-1] - t[0]):
+        if fk <= 0:
+            continue
+        a = np.column_stack([np.ones(n), tc, np.sin(2 * np.pi * fk * tc), np.cos(2 * np.pi * fk * tc)])
+        coef, *_ = np.linalg.lstsq(a, v, rcond=None)
+        r = float(np.sum((v - a @ coef) ** 2))
+        if r < best[0]:
+            best = (r, float(coef[1]), float(np.hypot(coef[2], coef[3])), float(fk))
+    return best[1], best[2], best[3]
+
+
 def _interior(tr: SpeedTrack) -> np.ndarray:
     """Samples more than two kernel widths from either end (the kernel's edges are biased)."""
     edge = 2.0 * tr.kernel_s
@@ -132,16 +156,17 @@ def angle_tolerance_rad(cfg: Any) -> float:
     return math.sqrt(2.0 * FEATURE_LOSS) / k_max if k_max > 0 else math.inf
 
 
-def resample_to_angle(data: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+def resample_to_angle(data: np.ndarray, angle_rad: np.ndarray, grid: np.ndarray | None = None) -> np.ndarray:
     """Each column of ``data`` at the instants where ``angle_rad`` (monotonic, one value per sample)
-    crosses a uniform grid from its first to its last value, ``data.shape[0]`` points: Kaiser-windowed
-    sinc interpolation, :data:`SINC_HALF_WIDTH` samples each side (ends mirrored)."""
+    crosses ``grid`` (default: uniform from its first to its last value, ``data.shape[0]`` points):
+    Kaiser-windowed sinc interpolation, :data:`SINC_HALF_WIDTH` samples each side (ends mirrored)."""
     x = np.asarray(data, dtype=float)
     one = x.ndim == 1
     if one:
         x = x[:, None]
     n = x.shape[0]
-    grid = np.linspace(angle_rad[0], angle_rad[-1], n)
+    if grid is None:
+        grid = np.linspace(angle_rad[0], angle_rad[-1], n)
     tk = np.interp(grid, angle_rad, np.arange(n, dtype=float))  # fractional sample index
     L = SINC_HALF_WIDTH
     pad = np.pad(x, ((L + 1, L + 1), (0, 0)), mode="reflect")
@@ -155,6 +180,20 @@ def resample_to_angle(data: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
     for c in range(x.shape[1]):
         out[:, c] = np.sum(wts * pad[idx, c], axis=1)
     return out[:, 0] if one else out
+
+
+def resample_channels(data: np.ndarray, tr: SpeedTrack) -> np.ndarray:
+    """Every channel on the uniform grid of the tracked angle, each along its own path's angle
+    ``angle - delay_c dw(t)`` (``tr.channel_delay_s``; ``dw`` the speed change): a channel whose transfer
+    path delays the mesh lines is read where its own lines are synchronous."""
+    x = np.asarray(data, dtype=float)
+    grid = np.linspace(tr.angle_rad[0], tr.angle_rad[-1], x.shape[0])
+    delays = tr.channel_delay_s if tr.channel_delay_s is not None else np.zeros(x.shape[1])
+    dw = (tr.speed_rpm - tr.mean_rpm) * math.pi / 30.0
+    out = np.empty_like(x)
+    for c in range(x.shape[1]):
+        out[:, c] = resample_to_angle(x[:, c], tr.angle_rad - delays[c] * dw, grid)
+    return out
 
 
 def _refusal(measurement: Measurement, declared: float, rel_range: float) -> str:
@@ -203,5 +242,5 @@ def check_speed_variation(measurement: Measurement, cfg: Any) -> tuple[Measureme
     if max(rng, seg_range) > MAX_RANGE:
         raise MeasurementError(_refusal(measurement, declared, max(rng, seg_range)))
     var.varies = True
-    data = resample_to_angle(measurement.data, tr.angle_rad)
+    data = resample_channels(measurement.data, tr)
     return dataclasses.replace(measurement, data=data, issues=[*measurement.issues, var.describe()]), var

@@ -28,7 +28,8 @@ delay ``tau`` shifts its angle by ``-tau dw(t)`` (``dw`` the speed change; about
 forces and 0.06 ms on the DTE of ``lumped_gearbox`` at 3000 rpm): each line's delay against the
 combination is regressed on ``dw``, and their weighted spread ``s_tau`` adds ``s_tau rms(dw)`` to the
 angle's sigma and ``s_tau rms(dw')`` to the speed's (the common delay of all lines is not observable);
-what the lines disagree beyond that scales the noise sigma (Birge ratio).
+what the lines disagree beyond that scales the noise sigma (Birge ratio). Each channel's delay (its lines'
+weighted mean) is returned for the resampling (``order_tracking.resample_channels``).
 
 What it cannot follow: a speed change faster than the kernel (its -3 dB point is
 ``0.13 / sigma_t``: 5 Hz at 3000 rpm, 14 Hz at 8000 rpm) is averaged out, and a record without
@@ -89,6 +90,9 @@ class SpeedTrack:
         out (>= 1; the noise sigma is scaled by it).
     delay_spread_s : float
         Weighted rms of the lines' delays against their combination (module docstring).
+    channel_delay_s : numpy.ndarray or None
+        Each channel's delay against the combination (its lines' weighted mean, s; 0 for a channel
+        without a usable line): channel ``c``'s lines follow ``angle(t) - delay_c dw(t)``.
     """
 
     t: np.ndarray
@@ -102,6 +106,7 @@ class SpeedTrack:
     segment_t: np.ndarray
     birge_ratio: float = 1.0
     delay_spread_s: float = 0.0
+    channel_delay_s: np.ndarray | None = None
 
     @property
     def mean_rpm(self) -> float:
@@ -172,7 +177,7 @@ def _demodulate(
     xc: np.ndarray, fs: float, theta: np.ndarray, orders: list[float], sig_n: float, f_slow: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """One phase-demodulation pass: each usable line's angle correction (rad, lines x samples, mean
-    free) and its weight ``K^2 / sigma_psi^2`` (empty when no line is usable)."""
+    free), its weight ``K^2 / sigma_psi^2`` and its channel (empty when no line is usable)."""
     n = xc.shape[0]
     h2 = 1.0 / (2.0 * math.sqrt(math.pi) * sig_n)  # sum of the squared Gaussian kernel (unit sum)
     f3 = 0.1325 / (sig_n / fs)  # the kernel's -3 dB frequency (Hz)
@@ -180,8 +185,9 @@ def _demodulate(
     ring = (np.abs(freqs) >= 1.5 * f3) & (np.abs(freqs) <= 0.8 * f_slow)
     dev: list[np.ndarray] = []
     wts: list[float] = []
+    chans: list[int] = []
     if np.count_nonzero(ring) < 8:
-        return np.zeros((0, n)), np.zeros(0)
+        return np.zeros((0, n)), np.zeros(0), np.zeros(0, dtype=int)
     for k in orders:
         ph = np.exp(-1j * k * theta)
         for c in range(xc.shape[1]):
@@ -197,14 +203,16 @@ def _demodulate(
             psi = np.unwrap(np.angle(zf))
             dev.append((psi - psi.mean()) / k)
             wts.append(k * k / var_psi)
-    return np.array(dev).reshape(len(dev), n), np.array(wts)
+            chans.append(c)
+    return np.array(dev).reshape(len(dev), n), np.array(wts), np.array(chans, dtype=int)
 
 
 def _uncertainty(
     d: np.ndarray, w: np.ndarray, theta: np.ndarray, fs: float, sig_n: float
-) -> tuple[float, float, float, float]:
-    """Angle sigma (rad), speed sigma (rad/s), Birge ratio and delay spread (s) of the last pass's
-    lines ``d`` (weights ``w``) about the angle ``theta`` they were combined into (module docstring)."""
+) -> tuple[float, float, float, float, np.ndarray]:
+    """Angle sigma (rad), speed sigma (rad/s), Birge ratio, delay spread (s) and each line's delay (s)
+    of the last pass's lines ``d`` (weights ``w``) about the angle ``theta`` they were combined into
+    (module docstring)."""
     edge = min(int(2 * sig_n), theta.size // 4)
     inner = slice(edge, theta.size - edge)
     mean = w @ d / w.sum()
@@ -225,7 +233,7 @@ def _uncertainty(
     rms_acc = math.sqrt(float(np.mean(acc[inner] ** 2)))
     sig_angle = math.hypot(sig_noise, spread * rms_dw)
     sig_speed = math.hypot(sig_noise / (math.sqrt(2.0) * sig_n / fs), spread * rms_acc)
-    return sig_angle, sig_speed, birge, spread
+    return sig_angle, sig_speed, birge, spread, tau
 
 
 def track_speed(
@@ -277,13 +285,19 @@ def track_speed(
     orders = _line_orders(mesh_orders, float(np.max(sp)) / 60.0, fs)
     xc = x - x.mean(axis=0)
     for _ in range(ITERATIONS):
-        d, wl = _demodulate(xc, fs, theta, orders, sig_n, f_slow)
+        d, wl, ch = _demodulate(xc, fs, theta, orders, sig_n, f_slow)
         if wl.size == 0:
             speed = w * 30.0 / math.pi
             return SpeedTrack(t, theta, speed, math.nan, math.nan, sig_n / fs, 0, sp, tc)
         corr = wl @ d / wl.sum()
         theta = theta + corr - corr[0]
-    sig_theta, sig_w, birge, spread = _uncertainty(d, wl, theta, fs, sig_n)
+    sig_theta, sig_w, birge, spread, tau = _uncertainty(d, wl, theta, fs, sig_n)
+    # each channel's delay against the combination: its lines' weighted mean
+    delays = np.zeros(x.shape[1])
+    for c in range(x.shape[1]):
+        sel = ch == c
+        if np.any(sel):
+            delays[c] = float(wl[sel] @ tau[sel] / wl[sel].sum())
     # the speed: the angle's derivative, lightly smoothed (the angle is already band-limited by the kernel)
     speed = smooth(np.gradient(theta, 1.0 / fs), SPEED_SMOOTH * sig_n).real * 30.0 / math.pi
     return SpeedTrack(
@@ -298,4 +312,5 @@ def track_speed(
         tc,
         birge,
         spread,
+        delays,
     )
