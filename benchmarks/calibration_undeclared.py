@@ -325,7 +325,7 @@ EFFECTS: list[Undeclared] = [
         "repeat_block_20ms_retimed",
         "the 20 ms before t = 1 s delivered twice, the time column running on",
         ("healthy", "tooth_pinion"),
-        ALL_COLUMNS,
+        (*ALL_COLUMNS, "every column"),  # a whole-row effect: named as "every column"
         ud.repeated_block(retime=True),
     ),
     Undeclared(
