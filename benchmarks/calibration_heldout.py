@@ -34,7 +34,6 @@ import math
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -359,9 +358,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     ci.SAMPLING = args.sampling  # the reference record is made by ci.make (before any pool forks)
-    todo = cases()
-    if args.cases:
-        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    todo = ci.select_cases(cases(), args.cases)
     if not todo:
         print("no case matches --cases", file=sys.stderr)
         return 2
@@ -391,20 +388,9 @@ def main(argv: list[str] | None = None) -> int:
             ref = ci.Case(f"baseline_{ci.BASELINE[0]:.0f}rpm_{ci.BASELINE[1]:.0f}C", *ci.BASELINE, None, 999)
             saved = ci._reference((ref, str(out), args.duration_s))  # the table's reference record and fit
             jobs += [(c, str(out), args.duration_s, saved) for c in todo]
-        if args.jobs > 1:
-            with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-                rows = list(pool.map(_job, jobs))
-        else:
-            rows = [_job(j) for j in jobs]
-        note = (
-            f"{args.sampling} sampling, {args.jobs} job(s) on {os.cpu_count()} cores, "
-            f"load average {load0:.1f} at the start and "
-            f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
-        )
-        text = render(rows, note)
-    print(text)
-    (out / "table.md").write_text(text)
-    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+        rows = ci.run_jobs(_job, jobs, args.jobs)
+        text = render(rows, ci.run_note(args.jobs, load0, t0, prefix=f"{args.sampling} sampling, "))
+    ci.save_results(out, text, rows)
     return 0
 
 

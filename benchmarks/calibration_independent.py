@@ -225,6 +225,34 @@ def _job(args: tuple[Case, str, float, str | None]) -> dict[str, Any]:
     return row
 
 
+def select_cases(todo: list[Any], substrings: list[str] | None) -> list[Any]:
+    """The cases whose ``tag`` contains one of ``substrings`` (all of them when None or empty)."""
+    return [c for c in todo if not substrings or any(s in c.tag for s in substrings)]
+
+
+def run_jobs(job: Any, jobs: list[Any], n_jobs: int) -> list[Any]:
+    """``job`` over ``jobs``: in a process pool of ``n_jobs`` workers, or one by one when ``n_jobs`` is 1."""
+    if n_jobs > 1:
+        with ProcessPoolExecutor(max_workers=n_jobs) as pool:
+            return list(pool.map(job, jobs))
+    return [job(j) for j in jobs]
+
+
+def run_note(n_jobs: int, load0: float, t0: float, prefix: str = "") -> str:
+    """The line under a benchmark table: jobs, cores, load at the start and the end, total time."""
+    return (
+        f"{prefix}{n_jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
+        f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
+    )
+
+
+def save_results(out: Path, text: str, rows: list[dict[str, Any]]) -> None:
+    """Print the table and write it (``table.md``) and the rows (``results.json``) into ``out``."""
+    print(text)
+    (out / "table.md").write_text(text)
+    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+
+
 def _fmt(x: Any, spec: str = ".3g") -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
@@ -329,9 +357,7 @@ def main(argv: list[str] | None = None) -> int:
     SAMPLING = args.sampling
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    todo = cases(args.quick)
-    if args.cases:
-        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    todo = select_cases(cases(args.quick), args.cases)
     if not todo:
         print("no case matches --cases", file=sys.stderr)
         return 2
@@ -368,20 +394,10 @@ def main(argv: list[str] | None = None) -> int:
                     else bases[BASELINE]
                 )
                 jobs.append((c, str(out), args.duration_s, str(b)))
-        if args.jobs > 1:
-            with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-                rows = list(pool.map(_job, jobs))
-        else:
-            rows = [_job(j) for j in jobs]
-        note = (
-            f"{args.sampling} sampling, {args.jobs} job(s) on {os.cpu_count()} cores, "
-            f"load average {load0:.1f} at the start and "
-            f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
-        )
+        rows = run_jobs(_job, jobs, args.jobs)
+        note = run_note(args.jobs, load0, t0, prefix=f"{args.sampling} sampling, ")
         text = render(rows, baseline_ok, note, skipped=args.no_baseline)
-    print(text)
-    (out / "table.md").write_text(text)
-    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+    save_results(out, text, rows)
     return 0
 
 

@@ -313,9 +313,7 @@ def main(argv: list[str] | None = None) -> int:
         print(text)
         (out / "statistic_files.md").write_text(text)
         return 0
-    todo = cases(TRUE_NM if args.torques is None else args.torques)
-    if args.cases:
-        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    todo = ci.select_cases(cases(TRUE_NM if args.torques is None else args.torques), args.cases)
     if not todo:
         print("no case matches --cases", file=sys.stderr)
         return 2

@@ -26,7 +26,6 @@ import json
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -178,9 +177,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    todo = cases()
-    if args.cases:
-        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    todo = ci.select_cases(cases(), args.cases)
     if not todo:
         print("no case matches --cases", file=sys.stderr)
         return 2
@@ -195,19 +192,8 @@ def main(argv: list[str] | None = None) -> int:
         ref = ci.Case("baseline_2000rpm_25C", *ci.BASELINE, None, 999)  # the table's reference record
         saved = ci._reference((ref, str(out), args.duration_s))
         jobs += [(c, str(out), args.duration_s, saved) for c in todo]
-    if args.jobs > 1:
-        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            rows = list(pool.map(_job, jobs))
-    else:
-        rows = [_job(j) for j in jobs]
-    note = (
-        f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
-        f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s"
-    )
-    text = render(rows, note)
-    print(text)
-    (out / "table.md").write_text(text)
-    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+    rows = ci.run_jobs(_job, jobs, args.jobs)
+    ci.save_results(out, render(rows, ci.run_note(args.jobs, load0, t0)), rows)
     return 0
 
 

@@ -238,9 +238,7 @@ def run_variants(
         f"1 job on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
         f"{os.getloadavg()[0]:.1f} at the end; total {time.perf_counter() - t0:.0f} s.\n"
     )
-    print(text)
-    (out / "table.md").write_text(text)
-    (out / "results.json").write_text(json.dumps(rows, indent=1, default=str))
+    ci.save_results(out, text, rows)
     return rows
 
 
@@ -268,9 +266,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    todo = cases(ERRORS_PCT if args.errors is None else args.errors, args.exact)
-    if args.cases:
-        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    todo = ci.select_cases(cases(ERRORS_PCT if args.errors is None else args.errors, args.exact), args.cases)
     if not todo:
         print("no case matches --cases", file=sys.stderr)
         return 2

@@ -180,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    todo = [c for c in cases(args.profiles) if not args.cases or any(s in c.tag for s in args.cases)]
+    todo = ci.select_cases(cases(args.profiles), args.cases)
     if not todo:
         print("no case matches --cases / --profiles", file=sys.stderr)
         return 2

@@ -509,9 +509,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--from-results", nargs="+", metavar="DIR", help="judge saved *.calibration.json")
     ap.add_argument("--list", action="store_true", help="print the cases and exit")
     args = ap.parse_args(argv)
-    todo = cases()
-    if args.cases:
-        todo = [c for c in todo if any(s in c.tag for s in args.cases)]
+    todo = ci.select_cases(cases(), args.cases)
     if args.list:
         for c in todo:
             print(f"{c.tag}: {c.effect.what}; truth {c.fault or 'healthy'}")
@@ -539,15 +537,8 @@ def main(argv: list[str] | None = None) -> int:
                 saved = ci._reference((ref, str(out), 2.0))
             jobs += [(c, str(out), saved) for c in todo]
         rows = _run(jobs, args.jobs)
-        load1 = os.getloadavg()[0]
-        text = render(
-            rows,
-            f"{args.jobs} job(s) on {os.cpu_count()} cores, load average {load0:.1f} at the start and "
-            f"{load1:.1f} at the end; total {time.perf_counter() - t0:.0f} s",
-        )
-    print(text)
-    for name, content in (("table.md", text), ("results.json", json.dumps(rows, indent=1, default=str))):
-        (out / name).write_text(content)
+        text = render(rows, ci.run_note(args.jobs, load0, t0))
+    ci.save_results(out, text, rows)
     return 0
 
 
