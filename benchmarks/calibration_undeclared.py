@@ -338,6 +338,35 @@ EFFECTS: list[Undeclared] = [
 ]
 
 
+def mains_cases() -> list[Undeclared]:
+    """Session 19 (rspike10, history Sec. 8.51): mains pickup on one channel, on and near a shaft order.
+
+    At 3000 rpm the input shaft turns at 50 Hz: a 50 Hz hum and its odd harmonics sit on its orders 1, 3
+    and 5; at 8000 rpm (133.3 Hz, output 78.9 Hz) on no order. 60 Hz lies 0.82 Hz from the output shaft's
+    order 2 (59.18 Hz) at 3000 rpm: near an order, resolved from it on a 2 s record."""
+    return [
+        Undeclared(
+            "mains_50hz_odd_node5_ay",
+            "50 Hz mains with its 3rd and 5th harmonics on node5_ay (0.5, 0.2, 0.1 RMS)",
+            ("healthy", "unbalance", "outer_race", "healthy_8000"),
+            "node5_ay",
+            ud.mains_hum("node5_ay", 50.0, {1: 0.5, 3: 0.2, 5: 0.1}),
+            keyword="mains",
+        ),
+        Undeclared(
+            "mains_60hz_node5_ay",
+            "60 Hz mains on node5_ay (0.5 RMS), 0.82 Hz from the output shaft's order 2 at 3000 rpm",
+            ("healthy", "tooth_pinion", "ball"),
+            "node5_ay",
+            ud.mains_hum("node5_ay", 60.0),
+            keyword="mains",
+        ),
+    ]
+
+
+EFFECTS += mains_cases()
+
+
 @dataclass(frozen=True)
 class Case:
     effect: Undeclared
