@@ -364,7 +364,43 @@ def mains_cases() -> list[Undeclared]:
     ]
 
 
+def sensor_transfer_cases() -> list[Undeclared]:
+    """Session 19 (rsensor10, Sec. 8.50): a channel's own slow gain on other channels and speeds, and an
+    accelerometer's sensitivity x2."""
+    return [
+        Undeclared(
+            "gain_mod_node5_ay",
+            "node5_ay gain modulated 8 % at 3.7 Hz (an accelerometer: no static carrier)",
+            ("healthy", "tooth_pinion"),
+            "node5_ay",
+            ud.gain_modulation("node5_ay"),
+        ),
+        Undeclared(
+            "gain_mod_dte",
+            "dte gain modulated 8 % at 3.7 Hz (the wear depth is read from its mean)",
+            ("wear",),
+            "dte",
+            ud.gain_modulation("dte"),
+        ),
+        Undeclared(
+            "gain_mod_bearing2_fy_8000",
+            "bearing2_fy gain modulated 8 % at 3.7 Hz where the teeth separate",
+            ("healthy_8000",),
+            "bearing2_fy",
+            ud.gain_modulation("bearing2_fy"),
+        ),
+        Undeclared(
+            "gain_x2_node5_ay",
+            "accelerometer node5_ay sensitivity x2",
+            ("healthy", "gear_ecc"),
+            "node5_ay",
+            gain("node5_ay", 2.0),
+        ),
+    ]
+
+
 EFFECTS += mains_cases()
+EFFECTS += sensor_transfer_cases()
 
 
 @dataclass(frozen=True)
