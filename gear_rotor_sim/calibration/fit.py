@@ -60,6 +60,7 @@ from gear_rotor_sim.calibration.candidates_tooth_path import (
     contact_tooth_path,
 )
 from gear_rotor_sim.calibration.channel_conventions import check_conventions
+from gear_rotor_sim.calibration.claim_check import apply_claim_checks
 from gear_rotor_sim.calibration.confirm_updated import stalled_round_step
 from gear_rotor_sim.calibration.features_bearing import impulse_note
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
@@ -580,6 +581,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         result.residual_trace = trace_residual(
             self, cur_feat, cur_score, rounds, [f.label for f in found], model_after, score0.error
         )
+        # a claim that leaves content the model lacks in its own signature is not confident (claim_check.py)
+        apply_claim_checks(result, self.runner.cfg)
         return result
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:
