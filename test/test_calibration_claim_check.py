@@ -52,6 +52,11 @@ def test_pattern_and_torsional_tests_on_set_traces() -> None:
     assert claim_check(tooth, tr, fams)["tests"] == ["pattern"]  # 1x-3x rest: not a tooth's flat comb
     assert not claim_check(tooth, {**tr, "readings": [flat]}, fams)["suspect"]  # the tooth's own comb
     assert not claim_check(tooth, {**tr, "readings": [other_shaft]}, fams)["suspect"]  # not its families
+    # a rest on one order alone is not read (the two models' own difference at an order looks the same)
+    ecc = {"label": "pinion_eccentricity", "error_before": 10.0, "error_after": 5.0}
+    order4 = _reading("shaft orders (input)", [0.0, 0.0, 0.0, 0.99, 0.0, 0.01], ["even"])
+    assert not claim_check(ecc, {**tr, "readings": [order4]}, fams)["suspect"]
+    assert claim_check(ecc, {**tr, "readings": [smooth]}, fams)["tests"] == ["pattern"]
     mis = {"label": "shaft_misalignment@node1", "error_before": 4.0, "error_after": 1.4}
     dte = {
         "channel": "dte",
