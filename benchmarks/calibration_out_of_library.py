@@ -76,10 +76,17 @@ def judge(case: ci.Case, res: dict[str, Any]) -> dict[str, Any]:
         {
             "label": e.get("label") or e.get("name"),
             "confidence": e.get("confidence"),
+            "status": e.get("status"),
             "parameters": e.get("parameters"),
         }
         for e in effects
     ]
+    # the claim check (calibration/claim_check.py): a suspect claim keeps its place with a low confidence
+    row["claim_checks"] = [
+        {"label": c.get("label"), "suspect": c.get("suspect"), "tests": c.get("tests")}
+        for c in res.get("claim_checks") or []
+    ]
+    row["n_suspect"] = sum(1 for e in effects if e.get("status") == "suspect")
     row["baseline_updates"] = [b.get("label") or b.get("name") for b in res.get("baseline_updates") or []]
     row["error_before"], row["error_after"] = res.get("error_before"), res.get("error_after")
     row["n_claims"] = len(effects)
@@ -124,6 +131,11 @@ def _reading_text(r: dict[str, Any]) -> str:
     return f"{pats}: {outside}{flag}"
 
 
+def _claim_text(c: dict[str, Any]) -> str:
+    sus = ", suspect" if c.get("status") == "suspect" else ""
+    return f"{c['label']} ({ci._fmt(c['confidence'], '.2f')}{sus})"
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     head = (
         "| record | truth | claimed (confidence) | baseline updates | error_before | error_after | "
@@ -133,9 +145,7 @@ def table(rows: list[dict[str, Any]]) -> str:
     )
     lines = []
     for r in rows:
-        claimed = ", ".join(
-            f"{c['label']} ({ci._fmt(c['confidence'], '.2f')})" for c in r.get("claimed") or []
-        )
+        claimed = ", ".join(_claim_text(c) for c in r.get("claimed") or [])
         base = ", ".join(r.get("baseline_updates") or [])
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {claimed or 'none'} | {base or '-'} | "
@@ -158,10 +168,12 @@ def render(rows: list[dict[str, Any]], note: str) -> str:
     n_claim = sum(1 for r in done if r.get("n_claims"))
     n_conf = sum(1 for r in done if r.get("n_confident"))
     n_flag = sum(1 for r in done if r.get("n_confident") and r.get("claims_suspect"))
+    n_sus = sum(1 for r in done if r.get("n_suspect"))
     text += (
         f"{len(done)} calibrations: a library effect claimed on {n_claim}, with confidence > {CONFIDENT} on "
         f"{n_conf} (wrong diagnoses: the library has neither fault); the residual trace flags "
-        f"{n_flag} of these {n_conf} claims (`claims_suspect`)"
+        f"{n_flag} of these {n_conf} claims (`claims_suspect`); the claim check marks a claim suspect "
+        f"(confidence <= 0.2) on {n_sus}"
     )
     return text + f"; {note}.\n"
 

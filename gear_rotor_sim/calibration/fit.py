@@ -60,6 +60,7 @@ from gear_rotor_sim.calibration.candidates_tooth_path import (
     contact_tooth_path,
 )
 from gear_rotor_sim.calibration.channel_conventions import check_conventions
+from gear_rotor_sim.calibration.claim_check import apply_claim_checks
 from gear_rotor_sim.calibration.confirm_updated import stalled_round_step
 from gear_rotor_sim.calibration.features_bearing import impulse_note
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
@@ -583,6 +584,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         )
         # mains lines off the orders, or on one and unexplained (mains_check.py): issues only
         self.m.issues.extend(mains_issues(self, result.residual_trace, model_after))
+        # a claim that leaves content the model lacks in its own signature is not confident (claim_check.py)
+        apply_claim_checks(result, self.runner.cfg)
         return result
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:

@@ -120,7 +120,7 @@ class FoundEffect:
     error_before: float
     error_after: float
     effect: Effect | None
-    status: str = "found"  # "found", "baseline", "at_bound", "inconsistent"
+    status: str = "found"  # "found", "suspect" (claim_check.py), "baseline", "at_bound", "inconsistent"
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -163,6 +163,8 @@ class CalibrationResult:
     model_steps: dict[str, Any] = field(default_factory=dict)
     #: where the final residual is, by channel, family and line (residual_trace.py)
     residual_trace: dict[str, Any] = field(default_factory=dict)
+    #: per claimed effect: what it leaves in its own signature (claim_check.py)
+    claim_checks: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def baseline_effects(self) -> list[Effect]:
@@ -231,6 +233,7 @@ class CalibrationResult:
             "n_simulations": self.n_simulations,
             **({"model_steps": self.model_steps} if self.model_steps else {}),
             **({"residual_trace": self.residual_trace} if self.residual_trace else {}),
+            **({"claim_checks": self.claim_checks} if self.claim_checks else {}),
         }
 
 

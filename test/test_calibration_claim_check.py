@@ -1,0 +1,109 @@
+"""The claim check (``calibration/claim_check.py``, docs/calibration.md Sec. 8.3): a claim forced by a fault
+outside the library (a breathing crack of the pinion shaft, independent generator) is not reported as a
+confident finding; a true claim (a damaged pinion tooth) is left as it was."""
+
+from __future__ import annotations
+
+from gear_rotor_sim.calibration.claim_check import SUSPECT_CONFIDENCE, claim_check, own_families
+from gear_rotor_sim.calibration.fit import Calibrator
+from gear_rotor_sim.calibration.measurement import load_measurement
+from gear_rotor_sim.config import load_config
+from lumped_gearbox import make_record, write_record
+
+CRACK = "shaft_crack:shaft=pinion,stiffness_loss=0.3,phase_rad=0.7"
+
+
+def test_own_families_follow_the_rig() -> None:
+    """The pinion sits on the input shaft (node 5), the gear on the output shaft; node 1 is the input's."""
+    cfg = load_config("paper_sun2021")
+
+    def fams(label: str, **p: object) -> list[str]:
+        return own_families({"label": label, "parameters": p}, cfg)
+
+    assert fams("tooth_damage@pinion", wheel="pinion", mesh=1) == [
+        "shaft orders (input)",
+        "mesh sidebands (input)",
+    ]
+    assert fams("gear_eccentricity")[1] == "mesh sidebands (output)"
+    assert fams("shaft_misalignment@node1") == ["shaft orders (input)"]
+    assert fams("mass_unbalance@node14") == ["shaft orders (output)"]
+    assert fams("pinion_misalignment", member="pinion")[0] == "shaft orders (input)"
+    assert fams("outer_race_defect@bearing2") == [] and fams("tooth_wear") == []
+
+
+def _reading(family: str, profile: list[float], patterns: list[str]) -> dict:
+    return {
+        "component": f"node5_ay: {family}",
+        "share": 0.2,
+        "profile": {f"{k + 1}x": v for k, v in enumerate(profile)},
+        "patterns": patterns,
+        "outside_the_library": ["breathing shaft crack"],
+    }
+
+
+def test_pattern_and_torsional_tests_on_set_traces() -> None:
+    """Test 1 reads the rest's pattern against the effect's own; test 2 a lateral order on the DTE."""
+    tooth = {"label": "tooth_damage@pinion", "error_before": 10.0, "error_after": 5.0}
+    fams = ["shaft orders (input)", "mesh sidebands (input)"]
+    smooth = _reading("mesh sidebands (input)", [0.55, 0.34, 0.09, 0.01, 0.01, 0.0], [])
+    flat = _reading("mesh sidebands (input)", [0.2, 0.15, 0.15, 0.2, 0.15, 0.15], ["broad"])
+    other_shaft = _reading("mesh sidebands (output)", [0.6, 0.4, 0, 0, 0, 0], ["1x-3x"])
+    tr = {"error": 5.0, "components": [], "readings": [smooth]}
+    assert claim_check(tooth, tr, fams)["tests"] == ["pattern"]  # 1x-3x rest: not a tooth's flat comb
+    assert not claim_check(tooth, {**tr, "readings": [flat]}, fams)["suspect"]  # the tooth's own comb
+    assert not claim_check(tooth, {**tr, "readings": [other_shaft]}, fams)["suspect"]  # not its families
+    # a rest on one order alone is not read (the two models' own difference at an order looks the same)
+    ecc = {"label": "pinion_eccentricity", "error_before": 10.0, "error_after": 5.0}
+    order4 = _reading("shaft orders (input)", [0.0, 0.0, 0.0, 0.99, 0.0, 0.01], ["even"])
+    assert not claim_check(ecc, {**tr, "readings": [order4]}, fams)["suspect"]
+    assert claim_check(ecc, {**tr, "readings": [smooth]}, fams)["tests"] == ["pattern"]
+    mis = {"label": "shaft_misalignment@node1", "error_before": 4.0, "error_after": 1.4}
+    dte = {
+        "channel": "dte",
+        "family": "shaft orders (input)",
+        "model_lacks_share": 0.04,
+        "largest": {
+            "at": "order 2",
+            "measured_over_noise": 13.7,
+            "model_over_noise": 0.6,
+            "normalised_residual": 13.3,
+        },
+    }
+    tr2 = {"error": 1.4, "components": [dte], "readings": []}
+    assert claim_check(mis, tr2, ["shaft orders (input)"])["tests"] == ["torsional"]
+    # the model's DTE holding a third of the record's order 2 or more: a lateral force can make that
+    dte_ok = {**dte, "largest": {**dte["largest"], "model_over_noise": 5.0}}
+    assert not claim_check(mis, {**tr2, "components": [dte_ok]}, ["shaft orders (input)"])["suspect"]
+    # at order 4 (not its own order) or on a bearing force: no torsional rest of this effect
+    dte_o4 = {**dte, "largest": {**dte["largest"], "at": "order 4"}}
+    assert not claim_check(mis, {**tr2, "components": [dte_o4]}, ["shaft orders (input)"])["suspect"]
+    force = {**dte, "channel": "bearing2_fy"}
+    assert not claim_check(mis, {**tr2, "components": [force]}, ["shaft orders (input)"])["suspect"]
+
+
+def test_true_pinion_tooth_claim_stays_confident(pinion_tooth_calibration) -> None:
+    """The shared 0.6 s pinion-tooth record (tooth 7, depth 0.4, 3000 rpm, no reference): named, found."""
+    r = pinion_tooth_calibration
+    assert r.effects and r.effects[0].label == "tooth_damage@pinion"
+    assert r.effects[0].status == "found" and r.effects[0].confidence > 0.9
+    chk = r.claim_checks[0]
+    assert chk["label"] == "tooth_damage@pinion" and not chk["suspect"] and chk["tests"] == []
+    assert "not a confident finding" not in r.conclusion
+
+
+def test_crack_claimed_as_a_tooth_is_not_a_confident_finding(tmp_path) -> None:
+    """A breathing crack on the pinion shaft (stiffness loss 0.3, 3000 rpm, 0.6 s): the library's closest
+    effect, a damaged pinion tooth, is still named, but marked suspect with a low confidence, and the note
+    says what the rest of its own signature reads like."""
+    rec = make_record(3000.0, 25.0, [CRACK], duration_s=0.6, seed=44)
+    r = Calibrator(load_measurement(write_record(tmp_path / "crack.csv", rec))).run()
+    tooth = [e for e in r.effects if e.label == "tooth_damage@pinion"]
+    assert tooth, [(e.label, e.confidence) for e in r.effects]
+    assert tooth[0].status == "suspect" and tooth[0].confidence <= SUSPECT_CONFIDENCE
+    chk = next(c for c in r.claim_checks if c["label"] == "tooth_damage@pinion")
+    assert chk["suspect"] and "pattern" in chk["tests"]
+    assert any(n.startswith("tooth_damage@pinion is not a confident finding") for n in r.notes)
+    assert "not a confident finding" in r.conclusion
+    d = r.as_dict()
+    first = next(e for e in d["effects"] if e["label"] == "tooth_damage@pinion")
+    assert first["status"] == "suspect" and first["confidence"] <= SUSPECT_CONFIDENCE
