@@ -338,6 +338,71 @@ EFFECTS: list[Undeclared] = [
 ]
 
 
+def mains_cases() -> list[Undeclared]:
+    """Session 19 (rspike10, history Sec. 8.51): mains pickup on one channel, on and near a shaft order.
+
+    At 3000 rpm the input shaft turns at 50 Hz: a 50 Hz hum and its odd harmonics sit on its orders 1, 3
+    and 5; at 8000 rpm (133.3 Hz, output 78.9 Hz) on no order. 60 Hz lies 0.82 Hz from the output shaft's
+    order 2 (59.18 Hz) at 3000 rpm: near an order, resolved from it on a 2 s record."""
+    return [
+        Undeclared(
+            "mains_50hz_odd_node5_ay",
+            "50 Hz mains with its 3rd and 5th harmonics on node5_ay (0.5, 0.2, 0.1 RMS)",
+            ("healthy", "unbalance", "outer_race", "healthy_8000"),
+            "node5_ay",
+            ud.mains_hum("node5_ay", 50.0, {1: 0.5, 3: 0.2, 5: 0.1}),
+            keyword="mains",
+        ),
+        Undeclared(
+            "mains_60hz_node5_ay",
+            "60 Hz mains on node5_ay (0.5 RMS), 0.82 Hz from the output shaft's order 2 at 3000 rpm",
+            ("healthy", "tooth_pinion", "ball"),
+            "node5_ay",
+            ud.mains_hum("node5_ay", 60.0),
+            keyword="mains",
+        ),
+    ]
+
+
+def sensor_transfer_cases() -> list[Undeclared]:
+    """Session 19 (rsensor10, Sec. 8.50): a channel's own slow gain on other channels and speeds, and an
+    accelerometer's sensitivity x2."""
+    return [
+        Undeclared(
+            "gain_mod_node5_ay",
+            "node5_ay gain modulated 8 % at 3.7 Hz (an accelerometer: no static carrier)",
+            ("healthy", "tooth_pinion"),
+            "node5_ay",
+            ud.gain_modulation("node5_ay"),
+        ),
+        Undeclared(
+            "gain_mod_dte",
+            "dte gain modulated 8 % at 3.7 Hz (the wear depth is read from its mean)",
+            ("wear",),
+            "dte",
+            ud.gain_modulation("dte"),
+        ),
+        Undeclared(
+            "gain_mod_bearing2_fy_8000",
+            "bearing2_fy gain modulated 8 % at 3.7 Hz where the teeth separate",
+            ("healthy_8000",),
+            "bearing2_fy",
+            ud.gain_modulation("bearing2_fy"),
+        ),
+        Undeclared(
+            "gain_x2_node5_ay",
+            "accelerometer node5_ay sensitivity x2",
+            ("healthy", "gear_ecc"),
+            "node5_ay",
+            gain("node5_ay", 2.0),
+        ),
+    ]
+
+
+EFFECTS += mains_cases()
+EFFECTS += sensor_transfer_cases()
+
+
 @dataclass(frozen=True)
 class Case:
     effect: Undeclared

@@ -7,7 +7,10 @@ record as ``gear-rotor-sim calibrate`` does and print per record the margins of 
 ``calibration/measurement_impulses.py`` and ``measurement_dropouts.py``: the largest interpolation error
 (robust scales of the AR interpolation error) and the count beyond the threshold per channel, the longest
 run of equal samples, repeated blocks, and whether loading added an ``issues`` entry. Records are written
-to ``--out`` once and reused. Docs: docs/history/calibration_sessions.md Sec. 8.47.
+to ``--out`` once and reused. Docs: docs/history/calibration_sessions.md Sec. 8.47. Session 19 (Sec. 8.51)
+added the events outside a regular train per channel (before the MIN_EVENTS threshold) and the mains check's
+statistic (``calibration/mains_check.py``): the largest line at a 50/60 Hz harmonic (1-10) that is no shaft's
+order at the declared speed, peak within EXACT_HZ, over its neighbourhood's median (LINE_SNR needed).
 
 Usage::
 
@@ -31,6 +34,7 @@ import calibration_heldout as ch
 import calibration_independent as ci
 import calibration_undeclared as cu
 
+from gear_rotor_sim.calibration import mains_check as mc
 from gear_rotor_sim.calibration import measurement_impulses as mi
 from gear_rotor_sim.calibration.measurement import load_measurement
 from gear_rotor_sim.calibration.measurement_dropouts import equal_runs, held_runs, repeated_blocks
@@ -66,6 +70,35 @@ def _unrepaired(path: Path) -> np.ndarray:
         return load_mat(path, CWRU_MAPPING).data
 
 
+def _outside_train(spikes: mi.Spikes, fs: float, duration_s: float) -> int:
+    """Events of a channel outside its regular train (all of them when there is none)."""
+    t = spikes.starts / fs
+    regular = mi.regular_rate(t, duration_s) if t.size else None
+    return int(t.size if regular is None else np.count_nonzero(~mi.train_members(t, regular[0])))
+
+
+def mains_margin(data: np.ndarray, fs: float, speed_rpm: float, cwru: bool) -> float:
+    """The mains check's statistic on the record: the largest line at a mains harmonic that is no shaft's
+    order (the paper gearbox: input and output shaft, 29 / 49), its peak within EXACT_HZ of the harmonic,
+    over its neighbourhood's median. The CWRU rig has no mesh: the check does not examine it (0)."""
+    if cwru:
+        return 0.0
+    sp = speed_rpm / 60.0
+    shafts = [("input", sp), ("output", sp * 29.0 / 49.0)]
+    big_t = data.shape[0] / fs
+    spectra = [mc.Spectrum(data[:, c], fs) for c in range(data.shape[1])]
+    worst = 0.0
+    for f0 in mc.MAINS_HZ:
+        for h in range(1, mc.MAX_HARMONIC + 1):
+            if mc.nearest_order(h * f0, shafts)[2] < 1.0 / big_t:
+                continue
+            for sp_c in spectra:
+                line = sp_c.line(h * f0)
+                if line is not None and abs(line[1] - h * f0) <= mc.EXACT_HZ:
+                    worst = max(worst, line[2])
+    return worst
+
+
 def stats(csv: Path) -> dict[str, Any]:
     """The checks' margins on one record, loaded as the calibration loads it."""
     t = time.process_time()
@@ -81,7 +114,7 @@ def stats(csv: Path) -> dict[str, Any]:
         return {"refused": str(exc)[:160]}
     raw = np.loadtxt(csv, delimiter=",", skiprows=1)[:, 1:] if csv.suffix == ".csv" else _unrepaired(csv)
     row: dict[str, Any] = {"issues": len(m.issues), "issue_text": [i[:90] for i in m.issues]}
-    peaks, counts, random, longest = [], [], [], []
+    peaks, counts, random, longest, outside = [], [], [], [], []
     fs = m.sample_rate_hz
     for k in range(m.data.shape[1]):
         x = raw[:, k]
@@ -90,11 +123,13 @@ def stats(csv: Path) -> dict[str, Any]:
         spikes, _ = mi.find_spikes(x)
         counts.append(int(spikes.starts.size))
         random.append(int(mi._interference(spikes, fs, x.size / fs).size) if spikes.starts.size else 0)
+        outside.append(_outside_train(spikes, fs, x.size / fs))
         runs = equal_runs(raw[:, k]) if raw.shape[0] > 1 else []
         longest.append(max((r[1] for r in runs), default=1))
         if held_runs(raw[:, k]):
             row.setdefault("held", []).append(m.channels[k].column)
-    row.update(peak_z=peaks, n_spikes=counts, n_random=random, longest_equal=longest)
+    row.update(peak_z=peaks, n_spikes=counts, n_random=random, longest_equal=longest, outside=outside)
+    row["mains"] = mains_margin(m.data, fs, m.operating_point.speed_rpm, csv.suffix == ".mat")
     row["repeats"] = len(repeated_blocks(raw[np.all(np.isfinite(raw), axis=1)]))
     row["cpu_s"] = time.process_time() - t
     return row
@@ -122,31 +157,39 @@ def main(argv: list[str] | None = None) -> int:
     load0 = os.getloadavg()[0]
     print(
         "| record | issues | largest interpolation error per channel (robust scales) | isolated "
-        f"spikes >= {mi.Z_SPIKE:g} | of them at random times | longest equal run | held | repeated blocks |"
+        f"spikes >= {mi.Z_SPIKE:g} | outside a train | of them repaired | longest equal run | held | "
+        "repeated blocks | mains line off the orders (x median) |"
     )
-    print("|---|---|---|---|---|---|---|---|")
-    worst = 0.0
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    worst = mains_worst = 0.0
+    most_outside = 0
     fired = 0
     for tag, csv, maker in todo:
         if not csv.exists():
             maker()
         s = stats(csv)
         if "refused" in s:
-            print(f"| {tag} | refused: {s['refused']} | | | | | | |")
+            print(f"| {tag} | refused: {s['refused']} | | | | | | | | |")
             continue
         fires = s["issues"] > 0 or s.get("held") or s["repeats"] or max(s["n_random"]) >= mi.MIN_EVENTS
+        fires = fires or s["mains"] >= mc.LINE_SNR
         fired += bool(fires)
-        worst = max(worst, *s["peak_z"]) if not tag.startswith("undeclared") else worst
+        if not tag.startswith("undeclared"):
+            worst = max(worst, *s["peak_z"])
+            most_outside = max(most_outside, *s["outside"])
+            mains_worst = max(mains_worst, s["mains"])
         print(
             f"| {tag} | {s['issues']} | {', '.join(f'{z:.1f}' for z in s['peak_z'])} | "
-            f"{', '.join(map(str, s['n_spikes']))} | {', '.join(map(str, s['n_random']))} | "
-            f"{max(s['longest_equal'])} | {s.get('held', '-')} | "
-            f"{s['repeats']} |",
+            f"{', '.join(map(str, s['n_spikes']))} | {', '.join(map(str, s['outside']))} | "
+            f"{', '.join(map(str, s['n_random']))} | {max(s['longest_equal'])} | {s.get('held', '-')} | "
+            f"{s['repeats']} | {s['mains']:.3g} |",
             flush=True,
         )
     print(
-        f"\n{len(todo)} records, {fired} with a finding; largest interpolation error, undisturbed records: "
-        f"{worst:.1f} robust scales; load {load0:.1f} -> {os.getloadavg()[0]:.1f}"
+        f"\n{len(todo)} records, {fired} with a finding; undisturbed records: largest interpolation error "
+        f"{worst:.1f} robust scales, most events outside a train on a channel {most_outside} (repaired from "
+        f"{mi.MIN_EVENTS}), largest mains line off the orders {mains_worst:.3g} x its neighbourhood (named "
+        f"from {mc.LINE_SNR:g}); load {load0:.1f} -> {os.getloadavg()[0]:.1f}"
     )
     return 0
 

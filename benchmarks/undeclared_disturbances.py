@@ -158,3 +158,24 @@ def gain_modulation(col: str, depth: float = 0.08, hz: float = 3.7) -> Post:
         rec.data[col] = rec.data[col] * (1.0 + depth * np.sin(2.0 * math.pi * hz * t + 0.4))
 
     return post
+
+
+def mains_hum(
+    col: str, hz: float = 50.0, harmonics: dict[int, float] | None = None, phase: float = 0.3
+) -> Post:
+    """Mains pickup on one channel: lines at ``h x hz`` of amplitude ``sqrt(2) x fraction x`` the channel's
+    RMS about its mean, ``harmonics`` mapping ``h`` to ``fraction`` (default the fundamental at 0.5), each
+    at phase ``h x phase`` (not synchronous with any shaft: it follows the supply, not the speed)."""
+    fractions = harmonics or {1: 0.5}
+
+    def post(rec: Record, fs: float) -> None:
+        x = rec.data[col]
+        t = np.arange(x.size) / fs
+        rms = float(np.std(x))
+        hum = sum(
+            math.sqrt(2.0) * a * rms * np.sin(2.0 * math.pi * h * hz * t + h * phase)
+            for h, a in fractions.items()
+        )
+        rec.data[col] = x + hum
+
+    return post

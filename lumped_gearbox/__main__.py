@@ -7,6 +7,7 @@ import sys
 import time
 
 from lumped_gearbox.faults import FAULT_NAMES, parse_fault
+from lumped_gearbox.load_profile import LoadProfile
 from lumped_gearbox.record import make_record, write_record
 from lumped_gearbox.speed_profile import SpeedProfile
 
@@ -59,6 +60,26 @@ def main(argv: list[str] | None = None) -> int:
         default=0.0,
         help="speed_profile.fluctuation_hz: its frequency, Hz (0 .. 50)",
     )
+    rec.add_argument(
+        "--load-fluctuation-pct",
+        type=float,
+        default=0.0,
+        help="load_profile.amplitude_pct: amplitude of the output torque's fluctuation, %% of its mean "
+        "(0 .. 50; default 0: constant torque)",
+    )
+    rec.add_argument(
+        "--load-fluctuation-hz",
+        type=float,
+        default=0.0,
+        help="load_profile.frequency_hz: its fixed frequency, Hz (0 .. 200)",
+    )
+    rec.add_argument(
+        "--load-fluctuation-gear-order",
+        type=float,
+        default=0.0,
+        help="load_profile.gear_order: locked to the gear's angle at this order of the gear shaft (0 .. 10; "
+        "instead of --load-fluctuation-hz)",
+    )
     rec.add_argument("--out", required=True, help="output CSV path")
     args = parser.parse_args(argv)
     try:
@@ -67,6 +88,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.speed_drift_pct or args.speed_fluctuation_pct:
             profile = SpeedProfile(
                 args.speed_drift_pct, args.speed_fluctuation_pct, args.speed_fluctuation_hz
+            )
+        load = None
+        if args.load_fluctuation_pct:
+            load = LoadProfile(
+                args.load_fluctuation_pct, args.load_fluctuation_hz, args.load_fluctuation_gear_order
             )
         t0 = time.perf_counter()
         r = make_record(
@@ -79,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
             housing=args.housing,
             sampling=args.sampling,
             speed_profile=profile,
+            load_profile=load,
         )
         path = write_record(args.out, r)
     except (ValueError, RuntimeError) as exc:

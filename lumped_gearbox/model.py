@@ -14,13 +14,14 @@ the bearings' dampers act on the wheel's lateral/axial motion.
     J1 th1'' = -k_t (th1 - D(t)) - c_t (th1' - D'(t)) - F_m rb1  (D: Cardan joint lag, else 0)
     m2 x2''  = -k_l x2 - c_l x2' + F_m sin(a) + f_g,x(t)       (and y)
     m2 z2''  = -k_z z2 - c_z z2' + F_m g(t)
-    J2 q2''  = T2 - F_m rb2
+    J2 q2''  = T2(t) - F_m rb2                                    (T2 constant unless load_profile.py)
 
 ``u = z1 w1 t / 2 pi`` is the mesh position in cycles, ``b`` the thermal half backlash, ``g(t)`` the
 misalignment wobble angle, ``f_c`` the fraction of face slices in contact. With a speed profile
 (``speed_profile.py``) the input end turns by ``psi(t)`` instead of ``w1 t``: ``u = z1 psi / 2 pi``, the
 wheels' angles and rotating forces follow ``psi`` and ``psi'``, and ``-psi''`` (pinion) and
 ``+psi'' z1 / z2`` (gear) join the torsional accelerations (coordinates relative to the driven rotation).
+A load-torque profile (``load_profile.py``) makes ``T2(t) = T0 [1 + A sin(omega t + k psi2 + phi)]``.
 A breathing shaft crack adds ``dk (n . d)_+ n`` to that wheel's lateral force ``f_p`` / ``f_g``
 (``shaft_faults.py``).
 """
@@ -40,7 +41,7 @@ G_Z1, G_Z2, G_EPS, G_RB1, G_RB2, G_SA, G_CA, G_W1, G_W2, G_PITCH, G_FACE, G_RELI
 M_M1, M_J1, M_M2, M_J2, M_ME1, M_ME2 = range(6)  # ME: wheel body masses (eccentric whirl)
 K_L1, K_L2, K_Z1, K_Z2, K_T1, K_PAIR = range(6)
 C_L1, C_L2, C_Z1, C_Z2, C_T1, C_M = range(6)
-L_T2, L_B, L_E0, L_EPH = range(4)
+L_T2, L_B, L_E0, L_EPH, L_TA, L_TW, L_TK, L_TPH = range(8)  # L_TA..: load_profile.py
 (
     F_ECC_P,
     F_ECC_P_PH,
@@ -196,7 +197,10 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
     a[4] = (-kk[K_L2] * q[4] - cc[C_L2] * v[4] + fm * sa + fgx) / mass[M_M2]
     a[5] = (-kk[K_L2] * q[5] - cc[C_L2] * v[5] + fm * ca + fgy) / mass[M_M2]
     a[6] = (-kk[K_Z2] * q[6] - cc[C_Z2] * v[6] + fax) / mass[M_M2]
-    a[7] = (load[L_T2] - fm * rb2) / mass[M_J2]
+    t2 = load[L_T2]
+    if load[L_TA] != 0.0:  # the driven machine's fluctuating torque (load_profile.py)
+        t2 = t2 * (1.0 + load[L_TA] * math.sin(load[L_TW] * t + load[L_TK] * psi2 + load[L_TPH]))
+    a[7] = (t2 - fm * rb2) / mass[M_J2]
     if prof[0] != 0.0:
         # coordinates relative to the driven rotation: its angular acceleration (speed_profile.py)
         a[3] -= geo[G_W1] * acc

@@ -20,6 +20,8 @@ import yaml
 from lumped_gearbox.daq import DAQ_SUBSTEPS, HOUSING_CHANNELS, acquire
 from lumped_gearbox.faults import Fault, fault_truth, parse_fault
 from lumped_gearbox.housing import housing_acceleration
+from lumped_gearbox.load_profile import LoadProfile
+from lumped_gearbox.model import L_TA
 from lumped_gearbox.params import Gearbox
 from lumped_gearbox.simulate import CHANNELS, build, run
 from lumped_gearbox.speed_profile import SpeedProfile
@@ -65,6 +67,8 @@ class Record:
     substeps: int = DAQ_SUBSTEPS
     #: the input speed's drift and fluctuation about the declared (mean) speed; None: constant
     speed_profile: SpeedProfile | None = None
+    #: the output torque's fluctuation about its mean (load_profile.py); None: constant
+    load_profile: LoadProfile | None = None
 
     def truth(self) -> dict[str, Any]:
         out = {
@@ -82,6 +86,8 @@ class Record:
         }
         if self.speed_profile is not None:
             out["speed_profile"] = self.speed_profile.truth()
+        if self.load_profile is not None:
+            out["load_profile"] = self.load_profile.truth()
         return out
 
 
@@ -99,6 +105,7 @@ def make_record(
     sampling: str = "daq",
     substeps: int | None = None,
     speed_profile: SpeedProfile | dict[str, float] | None = None,
+    load_profile: LoadProfile | dict[str, float] | None = None,
 ) -> Record:
     """Simulate the lumped gearbox and add sensor noise and gain errors.
 
@@ -134,13 +141,19 @@ def make_record(
         at ``fluctuation_hz`` (0 .. 50), ``fluctuation_phase_rad``; ``speed_rpm`` is the mean. The
         sidecar still declares ``speed_rpm``; the truth file holds the profile. None (default): the
         constant speed of every earlier record (bit for bit).
+    load_profile : LoadProfile or dict, optional
+        An output torque that fluctuates about the gearbox's ``output_torque_nm`` (its mean, the torque
+        the sidecar declares; :mod:`lumped_gearbox.load_profile`): ``amplitude_pct`` (0 .. 50) at
+        ``frequency_hz`` (0 .. 200) or locked to the gear at ``gear_order`` (0 .. 10), ``phase_rad``. The
+        truth file holds the profile. None (default): the constant torque of every earlier record (bit
+        for bit).
 
     Raises
     ------
     ValueError
         Naming the field: ``sampling`` not one of :data:`SAMPLINGS`, ``substeps`` below 1, a
-        ``speed_profile`` field outside its range, and the operating point and fault checks of
-        :func:`simulate.build`.
+        ``speed_profile`` or ``load_profile`` field outside its range, and the operating point and fault
+        checks of :func:`simulate.build`.
     """
     if sampling not in SAMPLINGS:
         raise ValueError(f"sampling: {sampling!r} not one of {', '.join(SAMPLINGS)}")
@@ -155,6 +168,10 @@ def make_record(
         speed_profile = SpeedProfile(**speed_profile)
     if speed_profile is not None:
         setup.profile = speed_profile.vector(duration_s)
+    if isinstance(load_profile, dict):
+        load_profile = LoadProfile(**load_profile)
+    if load_profile is not None:
+        setup.load[L_TA:] = load_profile.vector()
     channels = CHANNELS + HOUSING_CHANNELS if housing else CHANNELS
     if sampling == "daq":
         clean = acquire(setup, duration_s, sample_rate_hz, substeps, housing=housing)
@@ -195,6 +212,7 @@ def make_record(
         sampling,
         substeps,
         speed_profile,
+        load_profile,
     )
 
 

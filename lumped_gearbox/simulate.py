@@ -23,6 +23,7 @@ from lumped_gearbox.faults import (
     ToothDamage,
     ToothWear,
 )
+from lumped_gearbox.load_profile import N_LOAD_PROFILE
 from lumped_gearbox.mesh import RELIEF_CYCLES, pair_amplitude
 from lumped_gearbox.params import Gearbox, springs, thermal_axial_load, thermal_half_backlash
 from lumped_gearbox.speed_profile import N_PROFILE
@@ -126,9 +127,14 @@ def build(
             2 * gb.mesh_damping_ratio * math.sqrt(sp.mesh_mean * m_e),
         ]
     )
-    load = np.array(
-        [gb.output_torque_nm, thermal_half_backlash(gb, temp, wear), gb.ste_amplitude_m if ste else 0.0, 0.0]
-    )
+    # [T0, b, e0, phase, then the load-torque profile (load_profile.py; zeros: constant torque)]
+    load = np.zeros(mdl.L_TA + N_LOAD_PROFILE)
+    load[: mdl.L_TA] = [
+        gb.output_torque_nm,
+        thermal_half_backlash(gb, temp, wear),
+        gb.ste_amplitude_m if ste else 0.0,
+        0.0,
+    ]
     fault = np.zeros(17)
     fault[mdl.F_WEAR] = wear
     tooth_p = np.ones(gb.z1)

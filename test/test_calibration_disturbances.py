@@ -66,6 +66,36 @@ def test_spikes_within_the_signal_range_are_found_and_interpolated():
     assert none.starts.size == 0 and same is x
 
 
+def test_spikes_within_the_predictors_reach_of_each_other_are_repaired_together():
+    """Two spikes 6-23 samples apart (within the order-24 predictor's reach: each one's echoes fall on the
+    other) hid each other before session 19: neither passed the isolation test alone (history Sec. 8.51:
+    the two spikes that raised the repaired healthy records' error with --baseline). Judged together, both
+    are found and interpolated to the noise level."""
+    x, sigma = _mesh_signal(12)
+    for gap in (6, 10, 14, 23):
+        y = x.copy()
+        y[9000:9002] += 30 * sigma
+        y[9000 + gap : 9002 + gap] -= 20 * sigma
+        spikes, repaired = mi.find_spikes(y)
+        assert list(spikes.starts) == [9000, 9000 + gap]
+        assert np.max(np.abs(repaired - x)) < 4 * sigma
+
+
+def test_a_ringing_impact_is_not_cut_into_spikes():
+    """An impact through a resonance (3 kHz, 3 % and 10 % damping, 15-100 x the noise) rings for more
+    than a spike's three samples: judged together with the short runs its ring-down is cut into, it is
+    not taken (more than MAX_CLUSTER runs, or a ring beyond the guard)."""
+    x, sigma = _mesh_signal(3)
+    t = np.arange(200) / FS
+    for zeta in (0.03, 0.1):
+        ring = np.exp(-2 * np.pi * 3000 * zeta * t) * np.sin(2 * np.pi * 3000 * t)
+        for amp in (15, 40, 100):
+            y = x.copy()
+            y[5000:5200] += amp * sigma * ring / np.max(np.abs(ring))
+            spikes, same = mi.find_spikes(y)
+            assert spikes.starts.size == 0 and same is y
+
+
 def test_impacts_at_a_regular_rate_are_left_alone():
     """Bearing-like impacts through a resonance (3 kHz, 3 % damping) at 109 Hz with 1 % slip: the
     predictor explains each as one innovation, so some pass as isolated; their rate is regular, so they are

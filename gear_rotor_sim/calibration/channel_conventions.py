@@ -1,4 +1,5 @@
-"""Sensor conventions a sidecar can get wrong: a channel's sign, and a force sensor's sensitivity or axes.
+"""Sensor conventions a sidecar can get wrong: a channel's sign, and a force sensor's sensitivity or axes;
+and a channel's own slow gain (``gain_modulation.py``, divided out first: :func:`correct_gain_modulation`).
 
 Neither is a physical change of the machine, and neither is a nuisance the gain fit can absorb (the
 sensor gain is bounded to [0.8, 1.25], ``ResidualSettings.gain_bounds``). Read against the healthy
@@ -36,8 +37,11 @@ from typing import Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.gain_modulation import gain_modulation_fix
 from gear_rotor_sim.calibration.load_check import check_load, radial_channels
 
+#: quantities whose mean is an offset, not a signal (no carrier of a gain modulation)
+DYNAMIC_ONLY = ("acceleration", "housing_acceleration", "velocity")
 #: ``rho <= -FLIP_RHO`` reads as a reversed sign; the other channels must read ``rho >= FLIP_RHO``
 FLIP_RHO = 0.3
 #: summed squared signal-to-noise ratio of the order features that makes a channel's reading (as the
@@ -174,6 +178,29 @@ def radial_mean_issues(
     return out
 
 
+def correct_gain_modulation(cal: Any) -> None:
+    """Divide out a slow gain that one channel carries alone (``gain_modulation.py``) before the setup.
+
+    Reads modulations up to half the slowest shaft's rate; a corrected record gets its ``issues`` entries
+    (kept by a later sign correction) and a new comparison. A record without one is left untouched.
+    """
+    from gear_rotor_sim.calibration.residual import Comparison
+    from gear_rotor_sim.system import shaft_speed_ratios
+
+    ratios = np.abs(np.asarray(shaft_speed_ratios(cal.runner.cfg), float))
+    f_slow = float(ratios.min()) * cal.m.operating_point.speed_rpm / 60.0
+    chans = cal.m.channels
+    static = [c.quantity not in DYNAMIC_ONLY for c in chans]
+    fix = gain_modulation_fix(cal.m.data, [c.column for c in chans], cal.m.sample_rate_hz, f_slow, static)
+    if not fix.channels:
+        return
+    cal.log("; ".join(fix.issues))
+    cal.m.data = fix.apply(cal.m.data)
+    cal.m.issues.extend(fix.issues)
+    cal._issues_at_init = [*cal._issues_at_init, *fix.issues]
+    cal.cmp = Comparison(cal.m, cal.runner, cal.settings, cal._env_max)
+
+
 def check_conventions(cal: Any) -> np.ndarray:
     """The calibrator's setup (``_setup``, the healthy model's first run) and the checks on it
     (``Calibrator.run``).
@@ -198,6 +225,7 @@ def check_conventions(cal: Any) -> np.ndarray:
     from gear_rotor_sim.calibration.residual import Comparison
 
     n_notes = len(cal.notes)
+    correct_gain_modulation(cal)  # a channel's own slow gain, divided out (gain_modulation.py)
     base_out = cal._setup()
     cmp = cal.cmp
     if "order" in cmp.families and cmp.shafts:

@@ -80,6 +80,7 @@ from gear_rotor_sim.calibration.fit_types import (
 )
 from gear_rotor_sim.calibration.fit_verify import Verification
 from gear_rotor_sim.calibration.load_check import torque_entry
+from gear_rotor_sim.calibration.mains_check import mains_issues
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice
 from gear_rotor_sim.calibration.model_window import model_window_samples
@@ -580,6 +581,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         result.residual_trace = trace_residual(
             self, cur_feat, cur_score, rounds, [f.label for f in found], model_after, score0.error
         )
+        # mains lines off the orders, or on one and unexplained (mains_check.py): issues only
+        self.m.issues.extend(mains_issues(self, result.residual_trace, model_after))
         return result
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:

@@ -309,14 +309,19 @@ def correct_load(cal: Any, est: LoadEstimate, base_out: np.ndarray, n_notes: int
 def check_load(cal: Any, base_out: np.ndarray, n_notes: int) -> np.ndarray:
     """The load check of a set-up calibrator (``channel_conventions.check_conventions``): the healthy
     outputs at the measured torque where the check fires (:func:`correct_load`), else ``base_out``
-    unchanged. ``cal.torque_correction`` is the correction or None."""
+    unchanged. ``cal.torque_correction`` is the correction or None. Then the fluctuating-load check
+    (``load_fluctuation.check_load_fluctuation``: where the radial means are modulated alike, the load's
+    sidebands removed and the setup redone; ``cal.load_fluctuation``)."""
+    from gear_rotor_sim.calibration.load_fluctuation import check_load_fluctuation
+
     cal.torque_correction = None
+    cal.load_fluctuation = None
     if not getattr(cal, "load_check", True):
         return base_out
     est = load_estimate(cal, base_out)
-    if est is None or not est.fires:
-        return base_out
-    return correct_load(cal, est, base_out, n_notes)
+    if est is not None and est.fires:
+        base_out = correct_load(cal, est, base_out, n_notes)
+    return check_load_fluctuation(cal, base_out)
 
 
 def torque_entry(corr: LoadCorrection) -> Any:

@@ -17,9 +17,10 @@ Detection (autoregressive click detection: Vaseghi & Rayner 1990; Godsill & Rayn
    a single-sample impulse: a spike of height ``h`` at sample ``n`` gives ``d[n] = h``; its scale is robust
    (1.4826 x MAD);
 3. a spike is a run of at most :data:`MAX_WIDTH` samples with ``|d|`` beyond :data:`Z_SPIKE` robust
-   scales, isolated: no other sample within :data:`GUARD` samples beyond :data:`Z_QUIET` scales (a
-   mechanical impact rings through the structure's modes and its prediction error does not stop after
-   three samples);
+   scales, isolated: no other sample within :data:`GUARD` samples beyond :data:`Z_QUIET` scales once every
+   other such run is interpolated too (a mechanical impact rings through the structure's modes and its
+   prediction error does not stop after three samples; two spikes within the predictor's reach of each
+   other must not hide each other: the runs are judged together, session 19, Sec. 8.51);
 4. events at the same sample on at least two channels (and on at least half of them) are reported as
    common-mode.
 
@@ -53,6 +54,11 @@ MAX_WIDTH = 3
 #: ... with no other sample within GUARD samples beyond Z_QUIET scales
 GUARD = 12
 Z_QUIET = 4.5
+#: more runs than this within GUARD samples of each other are one ringing event, not spikes
+MAX_CLUSTER = 2
+#: sweeps that interpolate each spike again with the others' interpolation in place (two spikes within the
+#: predictor's reach of each other: the first was interpolated with the second still there)
+REFINE_SWEEPS = 2
 #: shortest channel analysed (samples)
 MIN_SAMPLES = 50 * AR_ORDER
 #: events at a regular rate: ``K R^2`` beyond this at some rate (R the events' phase coherence) ...
@@ -152,14 +158,18 @@ def channel_zscores(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 
 def find_spikes(x: np.ndarray) -> tuple[Spikes, np.ndarray]:
-    """Isolated short spikes of one channel and the channel with them interpolated (module docstring).
+    """Short spikes of one channel and the channel with them interpolated (module docstring).
 
-    Seeds (``|z| > Z_SPIKE``) are taken in decreasing ``|z|``; for each, the run of 1 to
+    Seeds (``|z| > Z_SPIKE``) are taken in decreasing ``|z|``; for each that is still beyond
+    :data:`Z_SPIKE` on the record as cleaned so far (an echo of a removed spike is not), the run of 1 to
     :data:`MAX_WIDTH` samples around it whose AR interpolation removes most of the prediction-error
-    energy is interpolated, the z-scores around it are computed again (a spike's echoes through the
-    predictor vanish with it), and the spike is kept only if no sample within :data:`GUARD` samples is
-    then beyond :data:`Z_QUIET` (else the interpolation is undone: not an isolated spike, and no seed within
-    the predictor's reach of it is taken either: those are its echoes).
+    energy is interpolated. Then the runs are judged together (:func:`_isolated`): a run is a spike when,
+    with every other run interpolated too, no sample within :data:`GUARD` samples of it is beyond
+    :data:`Z_QUIET` (a spike's echoes through the predictor vanish with it, an impact's ring-down does
+    not), and it is not one of more than :data:`MAX_CLUSTER` runs within :data:`GUARD` samples of each other
+    (a ringing impact cut into short runs). Runs that fail are restored and the rest judged again until
+    none fails. Judging the runs together keeps two spikes a few samples apart, or a spike next to a short
+    impact, from hiding each other (session 19, docs/history/calibration_sessions.md Sec. 8.51).
 
     Parameters
     ----------
@@ -182,18 +192,18 @@ def find_spikes(x: np.ndarray) -> tuple[Spikes, np.ndarray]:
     p = a.size - 1
     var_e = scale**2 * float(np.dot(a, a))  # var(d) = var(e) / sum(a^2)
     penalty = float(np.log(y.size))
-    starts, widths, peaks = [], [], []
+    work = y.copy()
+    runs: list[tuple[int, int, float]] = []
     reach = MAX_WIDTH + GUARD + 3 * p  # samples around a seed that its trials can touch
-    blocked = np.zeros(y.size, dtype=bool)  # near a seed that was not an isolated spike (and its echoes)
     for n in seeds:
         lo, hi = n - reach, n + reach + 1
-        if lo < 0 or hi > y.size or blocked[n]:
+        if lo < 0 or hi > y.size:
             continue
-        loc = y[lo:hi]  # a view: an accepted interpolation is written into y
+        loc = work[lo:hi]  # a view: an accepted interpolation is written into work
         c = n - lo
         zn = _zscores(loc, a, scale)[0][c]
         if abs(zn) <= Z_SPIKE:
-            continue  # an echo of a spike already removed
+            continue  # an echo of a run already interpolated
         best = (-np.inf, c, 1, loc)
         for w in range(1, MAX_WIDTH + 1):
             for s0 in range(c - w + 1, c + 1):
@@ -203,20 +213,50 @@ def find_spikes(x: np.ndarray) -> tuple[Spikes, np.ndarray]:
                 if score > best[0]:
                     best = (score, s0, w, trial)
         _, s0, w, trial = best
-        around = _zscores(trial, a, scale)[0][s0 - GUARD : s0 + w + GUARD]
-        around[GUARD - 1 : GUARD + w + 1] = 0.0
-        if np.any(np.abs(around) > Z_QUIET):
-            blocked[max(0, n - p - GUARD) : n + p + GUARD + 1] = True
-            continue
         loc[:] = trial
-        starts.append(lo + s0)
-        widths.append(w)
-        peaks.append(abs(float(zn)))
-    if not starts:
+        runs.append((lo + s0, w, abs(float(zn))))
+    runs = _isolated(y, work, a, scale, runs)
+    if not runs:
         return empty, x
-    order = np.argsort(starts)
-    spikes = Spikes(np.asarray(starts)[order], np.asarray(widths)[order], np.asarray(peaks)[order])
-    return spikes, y + med
+    runs.sort()
+    for _ in range(REFINE_SWEEPS):  # each run again with its neighbours' interpolation in place
+        for s0, w, _ in runs:
+            lo, hi = max(0, s0 - 2 * p), min(work.size, s0 + w + 2 * p)
+            work[lo:hi] = ar_interpolate(work[lo:hi], a, s0 - lo, w)
+    spikes = Spikes(
+        np.array([r[0] for r in runs]), np.array([r[1] for r in runs]), np.array([r[2] for r in runs])
+    )
+    return spikes, work + med
+
+
+def _isolated(
+    y: np.ndarray, work: np.ndarray, a: np.ndarray, scale: float, runs: list[tuple[int, int, float]]
+) -> list[tuple[int, int, float]]:
+    """The runs that are isolated short spikes, judged together (:func:`find_spikes`); ``work`` (``y`` with
+    every run interpolated) has the others restored from ``y``."""
+    while runs:
+        zc = np.abs(_zscores(work, a, scale)[0])
+        own = np.zeros(work.size, dtype=bool)  # every run and the sample on each side of it
+        for s0, w, _ in runs:
+            own[max(0, s0 - 1) : s0 + w + 1] = True
+        loud = (zc > Z_QUIET) & ~own
+        starts = np.array([r[0] for r in runs])
+        order = np.argsort(starts)
+        # clusters: runs whose starts are within GUARD of the previous one's
+        label = np.cumsum(np.r_[True, np.diff(starts[order]) > GUARD])
+        sizes = np.bincount(label)
+        bad = set()
+        for rank, i in enumerate(order):
+            s0, w, _ = runs[i]
+            if sizes[label[rank]] > MAX_CLUSTER or loud[max(0, s0 - GUARD) : s0 + w + GUARD].any():
+                bad.add(i)
+        if not bad:
+            break
+        for i in bad:
+            s0, w, _ = runs[i]
+            work[s0 : s0 + w] = y[s0 : s0 + w]
+        runs = [r for i, r in enumerate(runs) if i not in bad]
+    return runs
 
 
 def _energy(y: np.ndarray, a: np.ndarray, s0: int, w: int) -> float:
