@@ -186,6 +186,8 @@ class Measurement:
         Gaps, NaN runs and other findings reported while loading (never silently repaired).
     bearing_type : str or None
         Bearing type on every bearing of ``gearbox`` (recordings made with ``--bearing-type``).
+    speed_change : numpy.ndarray or None
+        Relative speed change per sample of a record resampled to uniform shaft angle (order tracking).
     """
 
     source: str
@@ -198,6 +200,9 @@ class Measurement:
     issues: list[str] = field(default_factory=list)
     #: bearing type put on every bearing of ``gearbox`` (a recording made with ``--bearing-type``)
     bearing_type: str | None = None
+    #: relative speed change ``w / w_mean - 1`` per sample where order tracking resampled the record to
+    #: uniform shaft angle (``order_tracking.py``, ``speed_modulation.py``); None at a constant speed
+    speed_change: np.ndarray | None = None
 
     @property
     def n_samples(self) -> int:

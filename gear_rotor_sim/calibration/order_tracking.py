@@ -38,7 +38,7 @@ import numpy as np
 
 from gear_rotor_sim.calibration.measurement import Measurement, MeasurementError
 from gear_rotor_sim.calibration.speed_estimate import mesh_orders_per_input, slowest_shaft_ratio
-from gear_rotor_sim.calibration.speed_tracking import SpeedTrack, track_speed
+from gear_rotor_sim.calibration.speed_tracking import SpeedTrack, refine_track, track_speed
 
 #: the angle's rms about its straight line must exceed this many sigma of its noise
 K_SIGMA = 5.0
@@ -196,6 +196,14 @@ def resample_channels(data: np.ndarray, tr: SpeedTrack) -> np.ndarray:
     return out
 
 
+def speed_change_on_grid(tr: SpeedTrack, n: int) -> np.ndarray:
+    """The relative speed change ``w / w_mean - 1`` at each of the ``n`` samples of the uniform angle grid
+    of :func:`resample_channels` (the tracked speed where the tracked angle crosses each grid point):
+    ``Measurement.speed_change`` of the resampled record (``speed_modulation.py``)."""
+    grid = np.linspace(tr.angle_rad[0], tr.angle_rad[-1], n)
+    return np.interp(grid, tr.angle_rad, tr.speed_rpm) / tr.mean_rpm - 1.0
+
+
 def _refusal(measurement: Measurement, declared: float, rel_range: float) -> str:
     return (
         f"{measurement.source}: operating_point.speed_rpm: the speed varies by {100 * rel_range:.3g} % "
@@ -242,5 +250,9 @@ def check_speed_variation(measurement: Measurement, cfg: Any) -> tuple[Measureme
     if max(rng, seg_range) > MAX_RANGE:
         raise MeasurementError(_refusal(measurement, declared, max(rng, seg_range)))
     var.varies = True
+    # the angle converged further before the resampling (speed_tracking.refine_track, Sec. 8.49)
+    tr = var.track = refine_track(measurement.data, measurement.sample_rate_hz, tr, orders)
     data = resample_channels(measurement.data, tr)
-    return dataclasses.replace(measurement, data=data, issues=[*measurement.issues, var.describe()]), var
+    issues = [*measurement.issues, var.describe()]
+    u = speed_change_on_grid(tr, data.shape[0])
+    return dataclasses.replace(measurement, data=data, issues=issues, speed_change=u), var

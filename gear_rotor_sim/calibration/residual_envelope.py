@@ -16,6 +16,7 @@ from gear_rotor_sim.calibration.features_envelope_noise import bin_sum_variance_
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
 from gear_rotor_sim.calibration.residual_types import ModelFeatures
 from gear_rotor_sim.calibration.signal_features import envelope_power_spectrum, prominent_envelope_band
+from gear_rotor_sim.calibration.speed_modulation import remove_speed_modulated
 
 #: envelope-band choice: a residual envelope line this many times its floor (6 dB, the detection
 #: threshold of a bearing line, ``FitSettings.line_prominence``) makes a channel's own band; below
@@ -168,10 +169,15 @@ class EnvelopeFeatures:
 
     def _envelope_input(self, x: np.ndarray) -> np.ndarray:
         """Signal whose envelope is analysed: without every shaft's synchronous part when the speed is
-        known precisely (order family active; ``features_orders.remove_synchronous``), else as is."""
+        known precisely (order family active; ``features_orders.remove_synchronous``), else as is. On a
+        record resampled to uniform angle (its speed varied) also without the synchronous response's
+        part that follows the speed change (``speed_modulation.py``, Sec. 8.49)."""
         if not self.env_non_sync:
             return x
-        return remove_synchronous(x, self.fs, [sh.ratio * self.speed_hz for sh in self.shafts])
+        shafts_hz = [sh.ratio * self.speed_hz for sh in self.shafts]
+        out = remove_synchronous(x, self.fs, shafts_hz)
+        u = getattr(self.m, "speed_change", None)
+        return out if u is None else remove_speed_modulated(out, self.fs, shafts_hz, u)
 
     def envelope_noise_floor(self, c: int) -> np.ndarray:
         """Noise floor of the measured envelope spectrum of channel ``c`` per bin: the level (median
