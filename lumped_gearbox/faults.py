@@ -65,7 +65,7 @@ class ToothDamage:
         z = 29 if self.wheel == "pinion" else 49
         if not 1 <= int(self.tooth) <= z:
             raise ValueError(f"tooth_damage.tooth: {self.tooth!r} outside 1..{z} for the {self.wheel}")
-        _range("tooth_damage.depth", self.depth, 0.0, 1.0)
+        check_range("tooth_damage.depth", self.depth, 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,7 @@ class Eccentricity:
     def __post_init__(self) -> None:
         if self.member not in ("pinion", "gear"):
             raise ValueError(f"eccentricity.member: {self.member!r} is not one of ['pinion', 'gear']")
-        _range(f"{self.name}.eccentricity_m", self.eccentricity_m, 0.0, 500e-6)
+        check_range(f"{self.name}.eccentricity_m", self.eccentricity_m, 0.0, 500e-6)
 
 
 @dataclass(frozen=True)
@@ -96,7 +96,7 @@ class MassUnbalance:
     def __post_init__(self) -> None:
         if int(self.node) not in (5, 14):
             raise ValueError(f"mass_unbalance.node: {self.node!r}; allowed 5 (pinion) or 14 (gear)")
-        _range("mass_unbalance.unbalance_kg_m", self.unbalance_kg_m, 0.0, 1e-2)
+        check_range("mass_unbalance.unbalance_kg_m", self.unbalance_kg_m, 0.0, 1e-2)
 
 
 @dataclass(frozen=True)
@@ -110,7 +110,7 @@ class GearMisalignment:
     def __post_init__(self) -> None:
         if self.member not in ("pinion", "gear"):
             raise ValueError(f"gear_misalignment.member: {self.member!r} is not one of ['pinion', 'gear']")
-        _range("gear_misalignment.angle_rad", self.angle_rad, 0.0, 0.02)
+        check_range("gear_misalignment.angle_rad", self.angle_rad, 0.0, 0.02)
 
 
 @dataclass(frozen=True)
@@ -120,7 +120,7 @@ class ToothWear:
     main = "wear_depth_m"
 
     def __post_init__(self) -> None:
-        _range("tooth_wear.wear_depth_m", self.wear_depth_m, 0.0, 200e-6)
+        check_range("tooth_wear.wear_depth_m", self.wear_depth_m, 0.0, 200e-6)
 
 
 @dataclass(frozen=True)
@@ -130,7 +130,7 @@ class TemperatureOffset:
     main = "offset_c"
 
     def __post_init__(self) -> None:
-        _range("temperature_offset.offset_c", self.offset_c, -300.0, 300.0)
+        check_range("temperature_offset.offset_c", self.offset_c, -300.0, 300.0)
 
 
 @dataclass(frozen=True)
@@ -150,7 +150,7 @@ class BearingDefect:
             raise ValueError(f"bearing defect kind: {self.kind!r} is not one of ['outer', 'inner', 'ball']")
         if int(self.bearing) != 2:
             raise ValueError(f"{self.name}.bearing: {self.bearing!r}; only bearing 2 (node 9) is modelled")
-        _range(f"{self.name}.force_n", self.force_n, 0.0, 1e5)
+        check_range(f"{self.name}.force_n", self.force_n, 0.0, 1e5)
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,7 @@ class BearingStiffness:
     main = "scale"
 
     def __post_init__(self) -> None:
-        _range("bearing_stiffness.scale", self.scale, 0.1, 10.0)
+        check_range("bearing_stiffness.scale", self.scale, 0.1, 10.0)
 
 
 @dataclass(frozen=True)
@@ -174,7 +174,7 @@ class ShaftCrack:
     def __post_init__(self) -> None:
         if self.shaft not in ("pinion", "gear"):
             raise ValueError(f"shaft_crack.shaft: {self.shaft!r} is not one of ['pinion', 'gear']")
-        _range("shaft_crack.stiffness_loss", self.stiffness_loss, 0.0, 0.5)
+        check_range("shaft_crack.stiffness_loss", self.stiffness_loss, 0.0, 0.5)
 
 
 @dataclass(frozen=True)
@@ -185,7 +185,7 @@ class CardanMisalignment:
     main = "angle_rad"
 
     def __post_init__(self) -> None:
-        _range("cardan_misalignment.angle_rad", self.angle_rad, 0.0, 0.35)
+        check_range("cardan_misalignment.angle_rad", self.angle_rad, 0.0, 0.35)
 
 
 #: faults of this generator that the FE effect library does not model
@@ -221,9 +221,16 @@ FAULT_NAMES = (
 )
 
 
-def _range(path: str, value: float, lo: float, hi: float) -> None:
-    if not (isinstance(value, int | float) and math.isfinite(value) and lo <= value <= hi):
+def check_range(path: str, value: Any, lo: float, hi: float) -> float:
+    """``value`` as a float if it is a finite number in ``[lo, hi]``; else a ValueError naming ``path``
+    and the range (the generator's faults and its speed and load profiles)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(value, bool) or not (math.isfinite(v) and lo <= v <= hi):
         raise ValueError(f"{path}: {value!r} outside the allowed range [{lo:g}, {hi:g}]")
+    return v
 
 
 def make_fault(name: str, **params: Any) -> Fault:

@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from .faults import check_range
+
 #: allowed ranges (docs/independent_data.md "Load-torque profile"): amplitude in percent of the mean
 #: torque, the fixed frequency, the order of the gear shaft
 AMPLITUDE_PCT_MAX = 50.0
@@ -37,13 +39,6 @@ FREQUENCY_HZ_MAX = 200.0
 GEAR_ORDER_MAX = 10.0
 #: length of the kernel's load-profile part (model.py: L_TA .. L_TPH): [A, omega, k, phi]
 N_LOAD_PROFILE = 4
-
-
-def _range(name: str, value: float, lo: float, hi: float) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"load_profile.{name}: {value!r} outside [{lo:g}, {hi:g}]")
-    return v
 
 
 @dataclass(frozen=True)
@@ -69,10 +64,10 @@ class LoadProfile:
     phase_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        _range("amplitude_pct", self.amplitude_pct, 0.0, AMPLITUDE_PCT_MAX)
-        _range("frequency_hz", self.frequency_hz, 0.0, FREQUENCY_HZ_MAX)
-        _range("gear_order", self.gear_order, 0.0, GEAR_ORDER_MAX)
-        _range("phase_rad", self.phase_rad, -10.0, 10.0)
+        check_range("load_profile.amplitude_pct", self.amplitude_pct, 0.0, AMPLITUDE_PCT_MAX)
+        check_range("load_profile.frequency_hz", self.frequency_hz, 0.0, FREQUENCY_HZ_MAX)
+        check_range("load_profile.gear_order", self.gear_order, 0.0, GEAR_ORDER_MAX)
+        check_range("load_profile.phase_rad", self.phase_rad, -10.0, 10.0)
         if self.amplitude_pct > 0.0 and (self.frequency_hz > 0.0) == (self.gear_order > 0.0):
             raise ValueError(
                 "load_profile.frequency_hz / load_profile.gear_order: exactly one must be > 0 "

@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from .faults import check_range
+
 #: allowed ranges (docs/independent_data.md "Speed profile"): the drift over the record and the
 #: fluctuation's amplitude in percent of the declared speed, and the fluctuation's frequency
 DRIFT_PCT_MAX = 10.0
@@ -33,13 +35,6 @@ FLUCTUATION_PCT_MAX = 5.0
 FLUCTUATION_HZ_MAX = 50.0
 #: length of the kernel's profile vector (model.py): [active, a, b, c, omega, phi]
 N_PROFILE = 6
-
-
-def _range(name: str, value: float, lo: float, hi: float) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"speed_profile.{name}: {value!r} outside [{lo:g}, {hi:g}]")
-    return v
 
 
 @dataclass(frozen=True)
@@ -65,10 +60,10 @@ class SpeedProfile:
     fluctuation_phase_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        _range("drift_pct", self.drift_pct, -DRIFT_PCT_MAX, DRIFT_PCT_MAX)
-        _range("fluctuation_pct", self.fluctuation_pct, 0.0, FLUCTUATION_PCT_MAX)
-        _range("fluctuation_hz", self.fluctuation_hz, 0.0, FLUCTUATION_HZ_MAX)
-        _range("fluctuation_phase_rad", self.fluctuation_phase_rad, -10.0, 10.0)
+        check_range("speed_profile.drift_pct", self.drift_pct, -DRIFT_PCT_MAX, DRIFT_PCT_MAX)
+        check_range("speed_profile.fluctuation_pct", self.fluctuation_pct, 0.0, FLUCTUATION_PCT_MAX)
+        check_range("speed_profile.fluctuation_hz", self.fluctuation_hz, 0.0, FLUCTUATION_HZ_MAX)
+        check_range("speed_profile.fluctuation_phase_rad", self.fluctuation_phase_rad, -10.0, 10.0)
         if self.fluctuation_pct > 0.0 and self.fluctuation_hz <= 0.0:
             raise ValueError("speed_profile.fluctuation_hz: must be > 0 with a fluctuation_pct > 0")
 
