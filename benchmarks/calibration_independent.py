@@ -230,6 +230,21 @@ def select_cases(todo: list[Any], substrings: list[str] | None) -> list[Any]:
     return [c for c in todo if not substrings or any(s in c.tag for s in substrings)]
 
 
+def prepare_run(
+    todo: list[Any], make_record: Any, out: Path, duration_s: float, what: str = "--cases"
+) -> tuple[float, float] | None:
+    """Start a benchmark run: None (the message printed) when no case is selected, else the time and the
+    load average at the start, after making each case's record (``make_record(case, out, duration_s)``)."""
+    if not todo:
+        print(f"no case matches {what}", file=sys.stderr)
+        return None
+    t0 = time.perf_counter()
+    load0 = os.getloadavg()[0]
+    for c in todo:
+        make_record(c, out, duration_s)
+    return t0, load0
+
+
 def run_jobs(job: Any, jobs: list[Any], n_jobs: int) -> list[Any]:
     """``job`` over ``jobs``: in a process pool of ``n_jobs`` workers, or one by one when ``n_jobs`` is 1."""
     if n_jobs > 1:

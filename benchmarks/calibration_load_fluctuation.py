@@ -27,9 +27,7 @@ the load. ``--statistic`` / ``--statistic-files``: no calibration, the load-fluc
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -172,13 +170,10 @@ def main(argv: list[str] | None = None) -> int:
         (out / "statistic_files.md").write_text(text)
         return 0
     todo = ci.select_cases(cases(), args.cases)
-    if not todo:
-        print("no case matches --cases", file=sys.stderr)
+    started = ci.prepare_run(todo, make, out, args.duration_s)
+    if started is None:
         return 2
-    t0 = time.perf_counter()
-    load0 = os.getloadavg()[0]
-    for c in todo:
-        make(c, out, args.duration_s)
+    t0, load0 = started
     if args.statistic:
         text = statistic([out / f"{c.tag}.csv" for c in todo])
         print(text)

@@ -23,9 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -190,13 +188,10 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     todo = ci.select_cases(cases(), args.cases)
-    if not todo:
-        print("no case matches --cases", file=sys.stderr)
+    started = ci.prepare_run(todo, ci.make, out, args.duration_s)
+    if started is None:
         return 2
-    t0 = time.perf_counter()
-    load0 = os.getloadavg()[0]
-    for c in todo:
-        ci.make(c, out, args.duration_s)
+    t0, load0 = started
     jobs: list[tuple[ci.Case, str, float, str | None]] = (
         [] if args.only_baseline else [(c, str(out), args.duration_s, None) for c in todo]
     )

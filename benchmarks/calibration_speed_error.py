@@ -267,13 +267,10 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     todo = ci.select_cases(cases(ERRORS_PCT if args.errors is None else args.errors, args.exact), args.cases)
-    if not todo:
-        print("no case matches --cases", file=sys.stderr)
+    started = ci.prepare_run(todo, make, out, args.duration_s)
+    if started is None:
         return 2
-    t0 = time.perf_counter()
-    load0 = os.getloadavg()[0]
-    for c in todo:
-        make(c, out, args.duration_s)
+    t0, load0 = started
     checks = [False] if args.only_before else [True, False] if args.before else [True]
     variants: list[tuple[str, Path | None, bool]] = []
     for check in checks:

@@ -26,10 +26,8 @@ the error before/after and the verdict by the issue-11 criteria of ``calibration
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -202,13 +200,10 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     todo = ci.select_cases(cases(args.profiles), args.cases)
-    if not todo:
-        print("no case matches --cases / --profiles", file=sys.stderr)
+    started = ci.prepare_run(todo, make, out, args.duration_s, "--cases / --profiles")
+    if started is None:
         return 2
-    t0 = time.perf_counter()
-    load0 = os.getloadavg()[0]
-    for c in todo:
-        make(c, out, args.duration_s)
+    t0, load0 = started
     variants: list[tuple[str, Path | None, bool]] = []
     if not args.only_baseline:
         variants.append(("no reference", None, True))
