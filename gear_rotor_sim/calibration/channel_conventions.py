@@ -184,11 +184,10 @@ def correct_gain_modulation(cal: Any) -> None:
     Reads modulations up to half the slowest shaft's rate; a corrected record gets its ``issues`` entries
     (kept by a later sign correction) and a new comparison. A record without one is left untouched.
     """
+    from gear_rotor_sim.calibration.load_fluctuation import shaft_rates_hz
     from gear_rotor_sim.calibration.residual import Comparison
-    from gear_rotor_sim.system import shaft_speed_ratios
 
-    ratios = np.abs(np.asarray(shaft_speed_ratios(cal.runner.cfg), float))
-    f_slow = float(ratios.min()) * cal.m.operating_point.speed_rpm / 60.0
+    f_slow = min(shaft_rates_hz(cal.runner.cfg, cal.m.operating_point.speed_rpm))
     chans = cal.m.channels
     static = [c.quantity not in DYNAMIC_ONLY for c in chans]
     fix = gain_modulation_fix(cal.m.data, [c.column for c in chans], cal.m.sample_rate_hz, f_slow, static)
