@@ -91,6 +91,12 @@ def shaft_speed_ratios(cfg: RigConfig) -> np.ndarray:
     return np.array(ratios, dtype=float)
 
 
+def shaft_rates_hz(cfg: RigConfig, speed_rpm: float) -> list[float]:
+    """Every shaft's rotation rate (Hz) at input speed ``speed_rpm``: ``|ratio| * speed_rpm / 60``
+    (ratios of :func:`shaft_speed_ratios`)."""
+    return [abs(float(r)) * speed_rpm / 60.0 for r in shaft_speed_ratios(cfg)]
+
+
 def drivetrain_metadata(cfg: RigConfig) -> dict[str, str]:
     """Per-shaft speed and per-mesh order information as text entries (recordings' ``custom_data``).
 

@@ -14,7 +14,7 @@ import pytest
 from roundoff import assert_psd, assert_symmetric, matrix_roundoff
 
 from gear_rotor_sim.examples import paper_gearbox, single_rotor
-from gear_rotor_sim.system import GearRotorSystem, static_solution
+from gear_rotor_sim.system import GearRotorSystem, shaft_rates_hz, static_solution
 
 RHO = 7860.0
 
@@ -31,6 +31,8 @@ def test_paper_topology(paper_system) -> None:
     assert len(s.free_dofs) == 107
     assert s.dof(1, "theta_z") not in s.free_dofs
     assert s.shaft_speed_ratios == pytest.approx([1.0, -29.0 / 49.0], rel=1e-15)
+    # shaft rates: 3000 rpm input = 50 Hz, gear shaft 50 z1 / z2 (Table 3: z1 = 29, z2 = 49)
+    assert shaft_rates_hz(paper_gearbox("A#"), 3000.0) == pytest.approx([50.0, 50.0 * 29.0 / 49.0], rel=1e-15)
     np.testing.assert_array_equal(s.shaft_of_node, [0] * 9 + [1] * 9)
     assert s.node_positions[4] == pytest.approx(0.070) and s.node_positions[8] == pytest.approx(0.140)
     np.testing.assert_allclose(s.G, -s.G.T, atol=0)

@@ -51,9 +51,9 @@ class ModelAccess:
     def _envelope_max(self, cfg: Any, geom: BearingGeometry) -> float:
         if self.settings.envelope_max_hz is not None:
             return self.settings.envelope_max_hz
-        from gear_rotor_sim.system import shaft_speed_ratios
+        from gear_rotor_sim.system import shaft_rates_hz
 
-        f = float(np.max(np.abs(shaft_speed_ratios(cfg)))) * self.m.operating_point.speed_rpm / 60.0
+        f = max(shaft_rates_hz(cfg, self.m.operating_point.speed_rpm))
         return 2.2 * geom.multiples()["bpfi"] * f
 
     def _features(self, raw: np.ndarray) -> ModelFeatures:

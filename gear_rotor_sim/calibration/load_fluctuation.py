@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from gear_rotor_sim.calibration.order_dft import revolution_coefficients
+from gear_rotor_sim.system import shaft_rates_hz
 
 #: line power over the band's median (non-order) or |mean|^2 over its variance (order-locked): 20 dB
 MIN_SNR = 100.0
@@ -267,13 +268,6 @@ def find_load_fluctuation(
                 )
             )
     return sorted(out, key=lambda c: -abs(c.amplitude))
-
-
-def shaft_rates_hz(cfg: Any, speed_rpm: float) -> list[float]:
-    """Every shaft's rotation rate (Hz) of rig ``cfg`` at input speed ``speed_rpm``."""
-    from gear_rotor_sim.system import shaft_speed_ratios
-
-    return [abs(float(r)) * speed_rpm / 60.0 for r in shaft_speed_ratios(cfg)]
 
 
 def first_firing(cands: Sequence[LoadFluctuation]) -> LoadFluctuation | None:

@@ -64,9 +64,9 @@ def model_window_samples(
     th = hunting_period_s(cfg, speed_rpm)
     if th is None:
         return int(n_samples)
-    from gear_rotor_sim.system import shaft_speed_ratios
+    from gear_rotor_sim.system import shaft_rates_hz
 
-    f_slow = min(abs(float(r)) for r in shaft_speed_ratios(cfg)) * speed_rpm / 60.0
+    f_slow = min(shaft_rates_hz(cfg, speed_rpm))
     k = max(1, math.ceil(min_window_s / th - 1e-9))
     n = math.ceil((k * th + 0.25 / f_slow) * sample_rate_hz)
     return int(min(n, n_samples))

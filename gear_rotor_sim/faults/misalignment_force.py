@@ -195,10 +195,10 @@ def simulate_mesh_force(
     from static equilibrium discarded, then whole hunting periods of the mesh lasting at least
     ``min_window_s`` (whole revolutions of the slowest shaft on a rig with several meshes)."""
     from gear_rotor_sim.simulator import Simulator
-    from gear_rotor_sim.system import shaft_speed_ratios
+    from gear_rotor_sim.system import shaft_rates_hz
 
     def run(effects: Sequence[object], channels: list[str]) -> tuple[np.ndarray, np.ndarray]:
-        slowest = min(abs(float(r)) for r in shaft_speed_ratios(cfg) if r != 0) * speed_rpm / 60.0
+        slowest = min(f for f in shaft_rates_hz(cfg, speed_rpm) if f != 0)
         period = 1.0 / slowest
         if len(cfg.meshes) == 1:
             m = cfg.meshes[0]
