@@ -287,7 +287,8 @@ EFFECTS: list[Undeclared] = [
     Undeclared(
         "pink_noise",
         "every channel's noise 1/f (pink) instead of white, same standard deviation",
-        ("healthy", "tooth_pinion", "ball"),
+        # session 20 (Sec. 8.53) added the 8000 rpm, outer-race and gear-eccentricity records
+        ("healthy", "tooth_pinion", "ball", "healthy_8000", "outer_race", "gear_ecc"),
         post=ud.pink_noise(),
     ),
     Undeclared(
@@ -410,7 +411,7 @@ PROBE_BASES = ("healthy", "healthy_8000", "tooth_pinion", "outer_race", "gear_ec
 def probe_cases() -> list[Undeclared]:
     """Session 20 (rprobe11, history Sec. 8.53): a sample clock off, force-sensor zeros, mount resonances
     on both accelerometers, coarse quantisation, a slow baseline wander, cross-talk and a force channel's
-    skew."""
+    skew (and ``pink_noise`` above on three more records)."""
     clock_kw, clock_post = up.clock_error(0.003)
     return [
         Undeclared(
@@ -471,12 +472,6 @@ def probe_cases() -> list[Undeclared]:
             "every channel: a random baseline wander at 0.3-5 Hz, 0.2 x its RMS",
             PROBE_BASES,
             post=up.baseline_wander(),
-        ),
-        Undeclared(
-            "pink_1f",
-            "every channel's noise 1/f (pink) instead of white, same standard deviation",
-            ("healthy_8000", "outer_race", "gear_ecc"),
-            post=ud.pink_noise(),
         ),
         Undeclared(
             "crosstalk_ax_ay_10pct",

@@ -1,5 +1,6 @@
 """Sensor conventions a sidecar can get wrong: a channel's sign, and a force sensor's sensitivity or axes;
-and a channel's own slow gain (``gain_modulation.py``, divided out first: :func:`correct_gain_modulation`).
+and a channel's own slow gain (``gain_modulation.py``, divided out first: :func:`correct_gain_modulation`), a
+drifting mean (``channel_drift.py``, :func:`correct_drift`) and an axial force's zero (``axial_zero.py``).
 
 Neither is a physical change of the machine, and neither is a nuisance the gain fit can absorb (the
 sensor gain is bounded to [0.8, 1.25], ``ResidualSettings.gain_bounds``). Read against the healthy
@@ -37,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.axial_zero import find_axial_zero
+from gear_rotor_sim.calibration.channel_drift import channel_drift
 from gear_rotor_sim.calibration.gain_modulation import gain_modulation_fix
 from gear_rotor_sim.calibration.load_check import check_load, radial_channels
 
@@ -184,13 +187,37 @@ def correct_gain_modulation(cal: Any) -> None:
     Reads modulations up to half the slowest shaft's rate; a corrected record gets its ``issues`` entries
     (kept by a later sign correction) and a new comparison. A record without one is left untouched.
     """
-    from gear_rotor_sim.calibration.load_fluctuation import shaft_rates_hz
-    from gear_rotor_sim.calibration.residual import Comparison
-
-    f_slow = min(shaft_rates_hz(cal.runner.cfg, cal.m.operating_point.speed_rpm))
+    f_slow = _slowest_rate_hz(cal)
     chans = cal.m.channels
     static = [c.quantity not in DYNAMIC_ONLY for c in chans]
     fix = gain_modulation_fix(cal.m.data, [c.column for c in chans], cal.m.sample_rate_hz, f_slow, static)
+    _correct_before_setup(cal, fix)
+
+
+def correct_drift(cal: Any) -> None:
+    """Remove the linear trend of a channel whose mean drifts over the record (``channel_drift.py``) before
+    the setup; a record without one is left untouched."""
+    f_slow = _slowest_rate_hz(cal)
+    chans = cal.m.channels
+    cols, units = [c.column for c in chans], [c.si_unit for c in chans]
+    static = [c.quantity not in DYNAMIC_ONLY for c in chans]
+    fix = channel_drift(cal.m.data, cols, units, cal.m.sample_rate_hz, f_slow, static)
+    _correct_before_setup(cal, fix)
+
+
+def _slowest_rate_hz(cal: Any) -> float:
+    """The slowest shaft's rate (Hz) at the measurement's speed."""
+    from gear_rotor_sim.system import shaft_rates_hz
+
+    return min(shaft_rates_hz(cal.runner.cfg, cal.m.operating_point.speed_rpm))
+
+
+def _correct_before_setup(cal: Any, fix: Any) -> None:
+    """A correction of the measurement before the setup (``fix.channels``, ``fix.issues``,
+    ``fix.apply(data)``): the data, their ``issues`` (kept by a later sign correction) and a new comparison.
+    Nothing for a fix without channels."""
+    from gear_rotor_sim.calibration.residual import Comparison
+
     if not fix.channels:
         return
     cal.log("; ".join(fix.issues))
@@ -200,6 +227,22 @@ def correct_gain_modulation(cal: Any) -> None:
     cal.cmp = Comparison(cal.m, cal.runner, cal.settings, cal._env_max)
 
 
+def _set_up_again(cal: Any, data: np.ndarray, issues: Sequence[str], n_notes: int) -> np.ndarray:
+    """Corrected ``data`` and their ``issues`` entries into the measurement, the comparison and the healthy
+    run set up again from the start (the model runs come from the runner's cache); the healthy outputs."""
+    from gear_rotor_sim.calibration.residual import Comparison
+
+    cal.log("; ".join(issues))
+    cal.m.data = data
+    cal._issues_at_init = [*cal._issues_at_init, *issues]
+    cal.m.issues[:] = list(cal._issues_at_init)
+    del cal.notes[n_notes:]  # the first setup's notes (the step count) come again
+    cal.runner.steps_per_mesh = cal._steps_at_init
+    cal.step_choice = None
+    cal.cmp = Comparison(cal.m, cal.runner, cal.settings, cal._env_max)
+    return cal._setup()
+
+
 def check_conventions(cal: Any) -> np.ndarray:
     """The calibrator's setup (``_setup``, the healthy model's first run) and the checks on it
     (``Calibrator.run``).
@@ -207,8 +250,12 @@ def check_conventions(cal: Any) -> np.ndarray:
     Reads the sign of every channel against the healthy model (:func:`sign_fix`); if one is reversed,
     the measurement is corrected, its ``issues`` get the entry, and the comparison and the healthy run
     are set up again from the start (the model runs come from the runner's cache), so the diagnosis
-    is the one of the correctly signed record. Then the radial bearing-force means
-    (:func:`radial_mean_issues`). A record whose channels all read right is left untouched.
+    is the one of the correctly signed record (before the setup: a channel's own slow gain divided out,
+    :func:`correct_gain_modulation`, and a drifting mean's trend removed, :func:`correct_drift`). Then an
+    axial bearing force's zero offset that no claimable
+    temperature explains is subtracted the same way (``axial_zero.find_axial_zero``), the load is checked
+    (``load_check.check_load``) and the radial bearing-force means (:func:`radial_mean_issues`). A record
+    whose channels all read right is left untouched.
 
     Parameters
     ----------
@@ -221,10 +268,9 @@ def check_conventions(cal: Any) -> np.ndarray:
     numpy.ndarray
         The healthy model's outputs (of the new setup if the data were corrected).
     """
-    from gear_rotor_sim.calibration.residual import Comparison
-
     n_notes = len(cal.notes)
     correct_gain_modulation(cal)  # a channel's own slow gain, divided out (gain_modulation.py)
+    correct_drift(cal)  # a channel's mean drifting over the record, its trend removed (channel_drift.py)
     base_out = cal._setup()
     cmp = cal.cmp
     if "order" in cmp.families and cmp.shafts:
@@ -233,14 +279,13 @@ def check_conventions(cal: Any) -> np.ndarray:
         columns = [c.column for c in cal.m.channels]
         fix = sign_fix(order_correlation(cmp.d_order, cmp.v_order, shifted.order), columns)
         if fix.channels:
-            cal.log("; ".join(fix.issues))
-            cal.m.data = fix.apply(cal.m.data)
-            cal.m.issues[:] = [*cal._issues_at_init, *fix.issues]
-            del cal.notes[n_notes:]  # the first setup's notes (the step count) come again
-            cal.runner.steps_per_mesh = cal._steps_at_init
-            cal.step_choice = None
-            cal.cmp = Comparison(cal.m, cal.runner, cal.settings, cal._env_max)
-            base_out = cal._setup()
+            base_out = _set_up_again(cal, fix.apply(cal.m.data), fix.issues, n_notes)
+    zeros = find_axial_zero(cal)  # an axial force's zero offset (axial_zero.py)
+    if zeros:
+        data = np.array(cal.m.data, dtype=float, copy=True)
+        for z in zeros:
+            data[:, z.channel] -= z.offset_n
+        base_out = _set_up_again(cal, data, tuple(z.issue() for z in zeros), n_notes)
     base_out = check_load(cal, base_out, n_notes)  # the output torque (load_check.py)
     cmp = cal.cmp
     if "static" in cmp.families:
