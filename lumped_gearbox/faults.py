@@ -39,9 +39,15 @@ phase_rad)                  side the shaft's lateral stiffness normal to the cra
 ``cardan_misalignment``     NOT in the FE library: the motor drives the input shaft through a
 (angle_rad, phase_rad)      Cardan (Hooke's) joint bent by ``angle_rad``: the driven end turns
                             ``~ angle^2 / 4 sin(2 psi)`` off uniform; even input orders, torsional
+``loose_housing``           NOT in the FE library: bearing 2's housing lifts off its loose foot
+(stiffness_loss,            once its push along ``direction_rad`` exceeds ``preload_n``, floats
+clearance_m, preload_n,     through the bolt clearance, then the bolts hold it with
+direction_rad,              ``(1 - stiffness_loss)`` of the bearing's stiffness (bilinear support,
+unbalance_kg_m, phase_rad)  changed load path); driven by the pinion's residual unbalance
 ==========================  =====================================================================
 
-The physics and derivations of the two out-of-library faults: ``shaft_faults.py``.
+The physics and derivations of the out-of-library faults: ``shaft_faults.py`` (crack, Cardan joint) and
+``loose_housing.py``.
 """
 
 from __future__ import annotations
@@ -188,9 +194,31 @@ class CardanMisalignment:
         check_range("cardan_misalignment.angle_rad", self.angle_rad, 0.0, 0.35)
 
 
+@dataclass(frozen=True)
+class LooseHousing:
+    """Bearing 2's housing on a loose foot (``loose_housing.py``); ``direction_rad`` turns the lift direction
+    from the normal of the line of action (0: across the static mesh load) towards the line of action."""
+
+    stiffness_loss: float = 0.0
+    clearance_m: float = 0.0
+    preload_n: float = 0.0
+    direction_rad: float = 0.0
+    unbalance_kg_m: float = 0.0
+    phase_rad: float = 0.0
+    name = "loose_housing"
+    main = "stiffness_loss"
+
+    def __post_init__(self) -> None:
+        check_range("loose_housing.stiffness_loss", self.stiffness_loss, 0.0, 1.0)
+        check_range("loose_housing.clearance_m", self.clearance_m, 0.0, 200e-6)
+        check_range("loose_housing.preload_n", self.preload_n, 0.0, 1e5)
+        check_range("loose_housing.direction_rad", self.direction_rad, -math.pi, math.pi)
+        check_range("loose_housing.unbalance_kg_m", self.unbalance_kg_m, 0.0, 1e-2)
+
+
 #: faults of this generator that the FE effect library does not model
 #: (benchmarks/calibration_out_of_library.py)
-OUT_OF_LIBRARY = ("shaft_crack", "cardan_misalignment")
+OUT_OF_LIBRARY = ("shaft_crack", "cardan_misalignment", "loose_housing")
 
 Fault = (
     ToothDamage
@@ -202,6 +230,7 @@ Fault = (
     | BearingStiffness
     | ShaftCrack
     | CardanMisalignment
+    | LooseHousing
 )
 
 FAULT_NAMES = (
@@ -218,6 +247,7 @@ FAULT_NAMES = (
     "bearing_stiffness",
     "shaft_crack",
     "cardan_misalignment",
+    "loose_housing",
 )
 
 
@@ -251,6 +281,7 @@ def make_fault(name: str, **params: Any) -> Fault:
             "bearing_stiffness": BearingStiffness,
             "shaft_crack": ShaftCrack,
             "cardan_misalignment": CardanMisalignment,
+            "loose_housing": LooseHousing,
         }
         if name not in table:
             raise ValueError(f"fault: unknown name {name!r}; allowed: {list(FAULT_NAMES)}")

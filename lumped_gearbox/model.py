@@ -23,7 +23,7 @@ wheels' angles and rotating forces follow ``psi`` and ``psi'``, and ``-psi''`` (
 ``+psi'' z1 / z2`` (gear) join the torsional accelerations (coordinates relative to the driven rotation).
 A load-torque profile (``load_profile.py``) makes ``T2(t) = T0 [1 + A sin(omega t + k psi2 + phi)]``.
 A breathing shaft crack adds ``dk (n . d)_+ n`` to that wheel's lateral force ``f_p`` / ``f_g``
-(``shaft_faults.py``).
+(``shaft_faults.py``); a loose bearing-2 housing adds ``D(n . d) n`` to ``f_p`` (``loose_housing.py``).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
+from lumped_gearbox.loose_housing import loose_relief
 from lumped_gearbox.mesh import pair_shape
 from lumped_gearbox.shaft_faults import cardan_lag, crack_force
 
@@ -60,7 +61,15 @@ L_T2, L_B, L_E0, L_EPH, L_TA, L_TW, L_TK, L_TPH = range(8)  # L_TA..: load_profi
     F_CRACK_GEAR,
     F_CARDAN,
     F_CARDAN_PH,
-) = range(17)
+    F_LOOSE,
+    F_LOOSE_BOLT,
+    F_LOOSE_LIFT,
+    F_LOOSE_GAP,
+    F_LOOSE_NX,
+    F_LOOSE_NY,
+    F_LOOSE_SHARE,
+) = range(24)
+N_FAULT = 24
 N_SLICES = 9
 N_OUT = 26  # q (8), v (8), a (8), mesh force, mesh stiffness
 
@@ -186,6 +195,18 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
             cx, cy = crack_force(q[0], q[1], psi1 + fault[F_CRACK_PH], 1.0, fault[F_CRACK] * kk[K_L1])
             fpx += cx
             fpy += cy
+    if fault[F_LOOSE] > 0.0:  # a loose bearing-2 housing lifting off its foot (loose_housing.py)
+        nx = fault[F_LOOSE_NX]
+        ny = fault[F_LOOSE_NY]
+        relief = loose_relief(
+            nx * q[0] + ny * q[1],
+            fault[F_LOOSE_LIFT],
+            fault[F_LOOSE_GAP],
+            fault[F_LOOSE],
+            fault[F_LOOSE_BOLT],
+        )
+        fpx += relief * nx
+        fpy += relief * ny
     tors = -kk[K_T1] * q[3] - cc[C_T1] * v[3]
     if fault[F_CARDAN] > 0.0:  # Cardan joint at the input (shaft_faults.py)
         lag, rate = cardan_lag(psi1 + fault[F_CARDAN_PH], fault[F_CARDAN], w1)

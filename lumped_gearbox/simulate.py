@@ -17,6 +17,7 @@ from lumped_gearbox.faults import (
     Eccentricity,
     Fault,
     GearMisalignment,
+    LooseHousing,
     MassUnbalance,
     ShaftCrack,
     TemperatureOffset,
@@ -24,6 +25,7 @@ from lumped_gearbox.faults import (
     ToothWear,
 )
 from lumped_gearbox.load_profile import N_LOAD_PROFILE
+from lumped_gearbox.loose_housing import bearing_relief, fault_terms
 from lumped_gearbox.mesh import RELIEF_CYCLES, pair_amplitude
 from lumped_gearbox.params import Gearbox, springs, thermal_axial_load, thermal_half_backlash
 from lumped_gearbox.speed_profile import N_PROFILE
@@ -135,7 +137,7 @@ def build(
         gb.ste_amplitude_m if ste else 0.0,
         0.0,
     ]
-    fault = np.zeros(17)
+    fault = np.zeros(mdl.N_FAULT)
     fault[mdl.F_WEAR] = wear
     tooth_p = np.ones(gb.z1)
     tooth_g = np.ones(gb.z2)
@@ -157,6 +159,23 @@ def build(
             fault[mdl.F_CRACK_GEAR] = 1.0 if f.shaft == "gear" else 0.0
         elif isinstance(f, CardanMisalignment):
             fault[mdl.F_CARDAN], fault[mdl.F_CARDAN_PH] = f.angle_rad, f.phase_rad
+    for f in faults:
+        if isinstance(f, LooseHousing):  # loose_housing.py; its driving unbalance adds to node 5's
+            fault[mdl.F_LOOSE : mdl.F_LOOSE_SHARE + 1] = fault_terms(
+                f.stiffness_loss,
+                f.clearance_m,
+                f.preload_n,
+                f.direction_rad,
+                sp.lateral_bending,
+                gb.k_radial,
+                geo[mdl.G_SA],
+                geo[mdl.G_CA],
+            )
+            if f.unbalance_kg_m > 0.0:
+                u = fault[mdl.F_UNB_P] * np.exp(1j * fault[mdl.F_UNB_P_PH]) + f.unbalance_kg_m * np.exp(
+                    1j * f.phase_rad
+                )
+                fault[mdl.F_UNB_P], fault[mdl.F_UNB_P_PH] = abs(u), float(np.angle(u))
     return Setup(
         geo,
         mass,
@@ -258,6 +277,13 @@ def channels(setup: Setup, out: np.ndarray, t: np.ndarray) -> dict[str, np.ndarr
         psi = g[mdl.G_W1] * t + setup.fault[mdl.F_CRACK_PH]
         n = np.column_stack([np.cos(psi), np.sin(psi)])  # crack_force, vectorised
         crack = loss_k * np.maximum(np.sum(n * q[:, 0:2], axis=1), 0.0)[:, None] * n
+    if setup.fault[mdl.F_LOOSE] > 0.0:  # bearing 2's changed load path (loose_housing.py)
+        f = setup.fault
+        nvec = np.array([f[mdl.F_LOOSE_NX], f[mdl.F_LOOSE_NY]])
+        relief = bearing_relief(
+            q[:, 0:2] @ nvec, f[mdl.F_LOOSE_LIFT], f[mdl.F_LOOSE_GAP], kk[mdl.K_L1], f[mdl.F_LOOSE_SHARE]
+        )
+        crack = crack + 2.0 * relief[:, None] * nvec  # the channels take half of ``crack``
     dte = (
         sa * (q[:, 0] - q[:, 4]) + ca * (q[:, 1] - q[:, 5]) + g[mdl.G_RB1] * q[:, 3] + g[mdl.G_RB2] * q[:, 7]
     )

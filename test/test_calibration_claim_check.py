@@ -77,8 +77,59 @@ def test_pattern_and_torsional_tests_on_set_traces() -> None:
     # at order 4 (not its own order) or on a bearing force: no torsional rest of this effect
     dte_o4 = {**dte, "largest": {**dte["largest"], "at": "order 4"}}
     assert not claim_check(mis, {**tr2, "components": [dte_o4]}, ["shaft orders (input)"])["suspect"]
+    # on a bearing force it is not torsional (test 3 reads it, below)
     force = {**dte, "channel": "bearing2_fy"}
-    assert not claim_check(mis, {**tr2, "components": [force]}, ["shaft orders (input)"])["suspect"]
+    assert (
+        "torsional" not in claim_check(mis, {**tr2, "components": [force]}, ["shaft orders (input)"])["tests"]
+    )
+
+
+def _own_order(channel: str, at: str, measured: float, model: float, r: float = 20.0) -> dict:
+    return {
+        "channel": channel,
+        "family": "shaft orders (input)",
+        "model_lacks_share": 0.05,
+        "largest": {
+            "at": at,
+            "measured_over_noise": measured,
+            "model_over_noise": model,
+            "normalised_residual": r,  # of the complex line: phases too
+        },
+    }
+
+
+def test_own_order_spread_over_the_lateral_channels_on_set_traces() -> None:
+    """Test 3: after the fit, the record / model ratio of a lateral effect's own order differs between the
+    lateral channels by 2 or more (a channel not listed counts as fitted, 1)."""
+    mis = {"label": "shaft_misalignment@node1", "error_before": 8.0, "error_after": 1.7}
+    fams = ["shaft orders (input)"]
+
+    def check(*comps: dict) -> dict:
+        return claim_check(mis, {"error": 1.7, "components": list(comps), "readings": []}, fams)
+
+    # a Cardan joint's 2x (session 19's contact 0.03 rad, --baseline): y 43.6 / 17.7, x 31.3 / 33.1
+    chk = check(
+        _own_order("bearing2_fy", "order 2", 43.6, 17.7), _own_order("bearing2_fx", "order 2", 31.3, 33.1)
+    )
+    assert chk["tests"] == ["own_order"] and abs(chk["own_order"]["spread"] - 2.46 / 0.946) < 0.01
+    # alone: 2.46 against the fitted 1
+    assert check(_own_order("bearing2_fy", "order 2", 43.6, 17.7))["tests"] == ["own_order"]
+    # both channels 1.3 x the model (the fitted size a little small): alike, not read
+    assert not check(
+        _own_order("bearing2_fy", "order 2", 26.0, 20.0), _own_order("bearing2_fx", "order 2", 13.0, 10.0)
+    )["suspect"]
+    # 1.5 and 0.8: a spread of 1.9, below 2
+    assert not check(
+        _own_order("bearing2_fx", "order 2", 30.0, 20.0), _own_order("node5_ax", "order 2", 16.0, 20.0)
+    )["suspect"]
+    # not its own order, or under 5 uncertainties out, or another effect kind: not read
+    assert not check(_own_order("bearing2_fy", "order 4", 43.6, 17.7))["suspect"]
+    assert not check(_own_order("bearing2_fy", "order 2", 8.0, 3.5, r=4.5))["suspect"]
+    ecc = {"label": "pinion_eccentricity", "error_before": 8.0, "error_after": 1.7}
+    tr = {"error": 1.7, "components": [_own_order("bearing2_fy", "order 1", 43.6, 17.7)], "readings": []}
+    assert not claim_check(ecc, tr, fams)["suspect"]
+    unb = {"label": "mass_unbalance@node5", "error_before": 8.0, "error_after": 1.7}
+    assert claim_check(unb, tr, fams)["tests"] == ["own_order"]
 
 
 def test_true_pinion_tooth_claim_stays_confident(pinion_tooth_calibration) -> None:

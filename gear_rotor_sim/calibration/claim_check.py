@@ -7,7 +7,7 @@ effect, which is then fitted to the part it can follow and claimed with confiden
 the crack as ``tooth_damage@pinion``, the Cardan joint as ``shaft_misalignment@node1``). What gives such a
 claim away is the **shape** of what it leaves in its own families (its shaft's low orders 1-6 and mesh
 sidebands): the fit has taken all of the record's content that the effect's own shape can follow, so content
-the model still lacks there in a shape the effect cannot produce comes from another mechanism. Two tests,
+the model still lacks there in a shape the effect cannot produce comes from another mechanism. Three tests,
 read from the final residual trace (``residual_trace.py``) only, so that they are evaluated alike in the
 calibration and on saved reports (docs/calibration.md Sec. 8.3, "Claims the residual contradicts"):
 
@@ -20,7 +20,9 @@ calibration and on saved reports (docs/calibration.md Sec. 8.3, "Claims the resi
    patterns (:data:`OWN_PATTERNS`; the tests of
    ``residual_signatures.PATTERN_TESTS``): a damaged tooth is an impulse once per turn, a flat comb over the
    spacings 1-6 (``broad``), so a rest concentrated on 1x-3x (a breathing crack's smooth modulation) or in
-   no simple pattern is not a tooth's; an eccentricity or unbalance is ``1x``, a misalignment ``2x``.
+   no simple pattern is not a tooth's; an eccentricity or unbalance is ``1x``, a gear misalignment ``2x``
+   or ``even``, a shaft misalignment (a coupling reaction at order 2 alone, ``faults/shaft.py``) ``2x``
+   only (since session 20: a rest of 2x 41 %, 6x 45 % after it is not its own).
 2. **Torsional rest of a lateral effect.** ``shaft_misalignment`` and ``mass_unbalance`` are lateral forces
    at a node (Sec. 3); where the dynamic transmission error's component of the effect's own shaft orders is
    among the trace's largest and its largest feature is the effect's own order (2, 1), standing at least
@@ -28,7 +30,19 @@ calibration and on saved reports (docs/calibration.md Sec. 8.3, "Claims the resi
    amplitude, the record's order is torsional (a Cardan joint's 2x turns the shaft non-uniformly), which a
    lateral force at that node does not make.
 
-A claim failing either test is **not a confident finding**: it stays in ``effects`` (the order found, its
+3. **Own order spread over the lateral channels** (session 20, history Sec. 8.56). The same lateral effects:
+   the fit sets one force (size and phase) from every channel, so after it the record / model ratio of its
+   own order should be alike on the lateral channels (bearing forces, accelerations; not the DTE). Among the
+   trace's largest components, those on a lateral channel and an own family whose largest feature is the
+   effect's own order at least 5 uncertainties out give their ratios, and the fit itself counts as ratio
+   1 (the channels not listed). Where the largest ratio over the smallest is :data:`SPREAD_RATIO` or more,
+   the record's own-order content is split between the directions or paths in a way a lateral force at that
+   node does not make: a force along a fixed line (a Cardan joint's 2x arrives through the mesh force,
+   along the line of action: bearing 2's y force holds 2.2-2.5 x the fitted misalignment's) or a one-sided,
+   anisotropic support (a loose housing's 2x across the line of action: bearing 2's x force 1.5 x the
+   fitted misalignment's, its y force 0.57 x).
+
+A claim failing any test is **not a confident finding**: it stays in ``effects`` (the order found, its
 parameters) with ``status: "suspect"``, its ``confidence`` capped at :data:`SUSPECT_CONFIDENCE`, a
 ``claim_checks`` entry (which test, the trace's reading of the rest and the effects outside the library that
 produce it), a note, and a sentence in the conclusion. Bearing defects, tooth wear and a temperature offset
@@ -42,6 +56,7 @@ contact tooth rows from the Cardan claims, history Sec. 8.48).
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Any
 
@@ -52,7 +67,7 @@ OWN_PATTERNS: dict[str, tuple[str, ...]] = {
     "tooth_damage": ("broad",),
     "eccentricity": ("1x",),
     "mass_unbalance": ("1x",),
-    "shaft_misalignment": ("2x", "even"),
+    "shaft_misalignment": ("2x",),  # the library's: a coupling reaction at order 2 alone (faults/shaft.py)
     "misalignment": ("2x", "even"),  # gear or pinion misalignment beyond rho = 1 (+-2 sidebands)
 }
 
@@ -64,6 +79,9 @@ SINGLE_ORDER = 0.9
 
 #: test 2: the record's torsional order at least this many times the final model's
 TORSIONAL_RATIO = 3.0
+
+#: test 3: the record / model ratios of the effect's own order over the lateral channels spread this much
+SPREAD_RATIO = 2.0
 
 #: the confidence of a suspect claim is at most this (the benchmarks count > 0.5 as confident)
 SUSPECT_CONFIDENCE = 0.2
@@ -123,8 +141,47 @@ def _is_dte(channel: str) -> bool:
     return channel == "dte" or channel.endswith("_dte")
 
 
+def _own_order_components(
+    kind: str, trace: dict[str, Any], families: list[str], dte: bool
+) -> list[dict[str, Any]]:
+    """The trace's largest components on the DTE (``dte``) or on the lateral channels whose largest feature is
+    a lateral effect's own order on an own family, >= 5 uncertainties out, with ``ratio`` = record / model."""
+    if kind not in LATERAL_ORDER:
+        return []
+    out = []
+    for c in trace.get("components") or []:
+        lg = c.get("largest") or {}
+        if (
+            _is_dte(str(c.get("channel"))) == dte
+            and c.get("family") in families
+            and lg.get("at") == f"order {LATERAL_ORDER[kind]}"
+            and lg.get("normalised_residual", 0.0) >= READING_MIN_RESIDUAL
+        ):
+            model = abs(lg.get("model_over_noise", 0.0))
+            ratio = lg.get("measured_over_noise", 0.0) / model if model > 0 else math.inf
+            out.append({"channel": c["channel"], "family": c["family"], **lg, "ratio": float(ratio)})
+    return out
+
+
+def _torsional(kind: str, trace: dict[str, Any], families: list[str]) -> dict[str, Any] | None:
+    """Test 2: the first DTE component of the effect's own order, the record >= TORSIONAL_RATIO x model."""
+    comps = _own_order_components(kind, trace, families, dte=True)
+    return next((c for c in comps if c["ratio"] >= TORSIONAL_RATIO), None)
+
+
+def _own_order_spread(kind: str, trace: dict[str, Any], families: list[str]) -> dict[str, Any] | None:
+    """Test 3: the record / model ratios of the effect's own order on the lateral channels (the fitted model,
+    1, among them) spread by :data:`SPREAD_RATIO` or more."""
+    comps = _own_order_components(kind, trace, families, dte=False)
+    if not comps:
+        return None
+    ratios = [1.0, *(c["ratio"] for c in comps)]
+    spread = max(ratios) / min(ratios)
+    return {"components": comps, "spread": float(spread)} if spread >= SPREAD_RATIO else None
+
+
 def claim_check(effect: dict[str, Any], trace: dict[str, Any], families: list[str]) -> dict[str, Any]:
-    """Tests 1 and 2 of the module docstring for one claimed effect.
+    """Tests 1-3 of the module docstring for one claimed effect.
 
     Parameters
     ----------
@@ -138,9 +195,10 @@ def claim_check(effect: dict[str, Any], trace: dict[str, Any], families: list[st
     Returns
     -------
     dict
-        ``suspect``, ``tests`` (the names of the tests it fails: ``pattern``, ``torsional``), ``families``,
-        ``own_patterns``, ``readings`` (the trace's readings of those families), ``torsional`` (the DTE
-        component of test 2, or None), ``lacking_share`` and ``lacking_ratio`` (measured, not used).
+        ``suspect``, ``tests`` (the names of the tests it fails: ``pattern``, ``torsional``, ``own_order``),
+        ``families``, ``own_patterns``, ``readings`` (the trace's readings of those families), ``torsional``
+        (the DTE component of test 2, or None), ``own_order`` (test 3's components and spread, or None),
+        ``lacking_share`` and ``lacking_ratio`` (measured, not used).
     """
     kind = _kind(str(effect.get("label")))
     own = OWN_PATTERNS.get(kind, ())
@@ -158,21 +216,12 @@ def claim_check(effect: dict[str, Any], trace: dict[str, Any], families: list[st
     tests = []
     if any(rd.get("profile") and not set(rd.get("patterns") or ()) & set(own) for rd in pattern_readings):
         tests.append("pattern")
-    torsional = None
-    if kind in LATERAL_ORDER:
-        for c in trace.get("components") or []:
-            lg = c.get("largest") or {}
-            if (
-                _is_dte(str(c.get("channel")))
-                and c.get("family") in families
-                and lg.get("at") == f"order {LATERAL_ORDER[kind]}"
-                and lg.get("normalised_residual", 0.0) >= READING_MIN_RESIDUAL
-                and lg.get("measured_over_noise", 0.0)
-                >= TORSIONAL_RATIO * abs(lg.get("model_over_noise", 0.0))
-            ):
-                torsional = {"channel": c["channel"], "family": c["family"], **lg}
-                tests.append("torsional")
-                break
+    torsional = _torsional(kind, trace, families)
+    if torsional:
+        tests.append("torsional")
+    short = _own_order_spread(kind, trace, families)
+    if short:
+        tests.append("own_order")
     comps = [c for c in trace.get("components") or [] if c.get("family") in families]
     lack = float(sum(c.get("model_lacks_share", 0.0) for c in comps))
     explained = float(effect["error_before"]) ** 2 - float(effect["error_after"]) ** 2
@@ -184,6 +233,7 @@ def claim_check(effect: dict[str, Any], trace: dict[str, Any], families: list[st
         "own_patterns": list(own),
         "readings": readings,
         "torsional": torsional,
+        "own_order": short,
         "lacking_share": lack,
         "lacking_ratio": float(lack * e2 / explained) if explained > 0 else float("nan"),
     }
@@ -220,6 +270,15 @@ def _sentence(label: str, chk: dict[str, Any]) -> str:
             f"against the model's {tq['model_over_noise']:.3g}) is torsional, which a lateral force at a "
             "node does not make: e.g. a Cardan (Hooke's) joint or angular coupling misalignment (not in the "
             "library)"
+        )
+    sh = chk.get("own_order")
+    if sh:
+        ratios = ", ".join(f"{c['channel']} {c['ratio']:.2g}" for c in sh["components"])
+        parts.append(
+            f"the record / model ratio of its own {sh['components'][0]['at']} differs between the lateral "
+            f"channels ({ratios}; the fitted model 1): the record's content there takes a direction or path "
+            "that a lateral force at that node does not make (e.g. a torque fluctuation reaching the "
+            "bearings through the mesh force, or a one-sided support; not in the library)"
         )
     return text + "; ".join(parts)
 
