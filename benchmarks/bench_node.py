@@ -18,7 +18,10 @@ runs without it, and prints both medians and their ratio (e.g. the cost of a mis
 axial force the simulator takes from a running average of its own mesh force).
 
     . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--burst]
-        [--model NAME] [--faults FILE]
+        [--model NAME] [--faults FILE] [--replay on|off|both]
+
+``--replay``: the node's ``periodic_replay`` (default on, as the node's default; docs/solver.md,
+"Periodic replay at steady state"); ``both`` runs with and without it, interleaved.
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ def _sim_args(
     mcap: Path,
     model: str | None = None,
     faults: Path | None = None,
+    replay: bool = True,
 ) -> list[str]:
     return [
         "--ros-args",
@@ -73,6 +77,8 @@ def _sim_args(
         f"recording.path:={mcap}",
         "-p",
         "diagnostics_period_s:=0.5",
+        "-p",
+        f"periodic_replay:={'true' if replay else 'false'}",
     ]
 
 
@@ -125,14 +131,15 @@ def run_once(
     workdir: Path,
     model: str | None = None,
     faults: Path | None = None,
+    replay: bool = True,
 ) -> float:
     """Achieved real-time factor of one node run at ``speed`` rpm (``model``: the node's default;
-    ``faults``: a fault list file)."""
+    ``faults``: a fault list file; ``replay``: the node's ``periodic_replay``)."""
     env = ros_environment()
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     mcap = workdir / f"bench_{int(speed)}.mcap"
     sim = start_process(
-        "simulator", _sim_args(env, speed, 1.0e4, mcap, model, faults), env, workdir / "simulator.log"
+        "simulator", _sim_args(env, speed, 1.0e4, mcap, model, faults, replay), env, workdir / "simulator.log"
     )
     probe = Probe(topics=("/gear_rotor/dte",), reliable=False, keep_data=False)
     try:
@@ -228,6 +235,12 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="YAML fault list (docs/faults.md): runs with it, interleaved with runs without",
     )
+    parser.add_argument(
+        "--replay",
+        choices=("on", "off", "both"),
+        default="on",
+        help="the node's periodic_replay (docs/solver.md); both: runs with and without, interleaved",
+    )
     args = parser.parse_args(argv)
     faults = args.faults.resolve() if args.faults else None
     if faults is not None and not faults.is_file():
@@ -240,24 +253,27 @@ def main(argv: list[str] | None = None) -> int:
             f"node end to end (simulate, publish default streams, record MCAP); median of {args.runs} runs"
             + (f"; model {args.model}" if args.model else "")
         )
-        variants = [None, faults] if faults else [None]
-        results: dict[tuple[float, Path | None], float] = {}
+        replays = {"on": [True], "off": [False], "both": [True, False]}[args.replay]
+        variants = [(f, r) for f in ([None, faults] if faults else [None]) for r in replays]
+        results: dict[tuple[float, Path | None, bool], float] = {}
         for speed in args.speeds:
-            runs: dict[Path | None, list[float]] = {v: [] for v in variants}
+            runs: dict[tuple[Path | None, bool], list[float]] = {v: [] for v in variants}
             for _ in range(args.runs):  # interleaved: the machine's load falls on both alike
                 for v in variants:
-                    runs[v].append(run_once(speed, args.warmup_s, args.measure_s, workdir, args.model, v))
+                    runs[v].append(run_once(speed, args.warmup_s, args.measure_s, workdir, args.model, *v))
             for v in variants:
-                results[(speed, v)] = statistics.median(runs[v])
+                results[(speed, *v)] = statistics.median(runs[v])
         print("\nspeed_rpm  achieved_RTF  goal")
         for speed in args.speeds:
-            rtf = results[(speed, None)]
-            goal = GOALS.get((args.model, speed))
-            verdict = "" if goal is None else f">= {goal:g}  {'met' if rtf >= goal else 'NOT met'}"
-            print(f"{speed:9.0f}  {rtf:12.2f}  {verdict}")
-            if faults:
-                rf = results[(speed, faults)]
-                print(f"{speed:9.0f}  {rf:12.2f}  with {faults.name} (x{rf / rtf:.3f} of the run without)")
+            for r in replays:
+                rtf = results[(speed, None, r)]
+                goal = GOALS.get((args.model, speed))
+                verdict = "" if goal is None else f">= {goal:g}  {'met' if rtf >= goal else 'NOT met'}"
+                print(f"{speed:9.0f}  {rtf:12.2f}  {verdict}  (periodic_replay {'on' if r else 'off'})")
+                if faults:
+                    rf = results[(speed, faults, r)]
+                    ratio = f"x{rf / rtf:.3f} of the run without"
+                    print(f"{speed:9.0f}  {rf:12.2f}  with {faults.name} ({ratio})")
     return 0
 
 

@@ -57,6 +57,11 @@ because the machine is shared.
     ``Simulator.advance`` at 20000 rpm (DTE only) split into the kernel's CPU and the rest, with the
     minor page faults and system CPU per simulated second (newmark.ChunkBuffers).
 
+(r) periodic replay at steady state (``Simulator(periodic_replay=True)``, benchmarks/bench_replay.py):
+    the time until it engages and the RTF with it against integration, interleaved, 3000 / 7000 /
+    12000 / 20000 rpm DTE only and 3000 / 20000 rpm with the 16 default channels. Every other part
+    integrates (the option is off by default; the default / full ratio is measured with it off).
+
 ``measure(quick)`` returns ``steps_per_s`` (simulate_steady, DTE only, 32 steps/mesh, the smaller of
 3000 and 20000 rpm), ``rtf_3000rpm`` and ``rtf_20000rpm`` (Simulator.advance, DTE only) plus the detail; the
 reproduce command imports it (``quick=True`` takes well under a minute).
@@ -714,6 +719,10 @@ def main() -> None:
     report(res)
     res["kernel_breakdown"] = kernel_breakdown(5 if args.quick else 9)
     report_kernel(res["kernel_breakdown"])
+    from bench_replay import replay_table, report_replay  # here: reproduce loads this file by path
+
+    res["periodic_replay"] = replay_table(0.2, 5)
+    report_replay(res["periodic_replay"])
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(res, fh, indent=1, default=float)

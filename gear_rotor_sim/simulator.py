@@ -31,6 +31,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from gear_rotor_sim.faults.misalignment_stream import MisalignmentStream
+from gear_rotor_sim.simulator_replay import PeriodicReplay
 from gear_rotor_sim.simulator_stepping import (
     DT_RULE_SPEED_FLOOR_RPM,
     DT_RULE_WINDOW_S,
@@ -193,6 +194,15 @@ class Simulator(SystemCache, Stepping, Stream):
         faults.md): its axial force follows the instantaneous mesh force. Default True (the node,
         ``record``, ``dataset``); False: such an effect keeps the static mesh force ``F0`` (the
         calibration's model runs, which supply the orders from their own fixed-point pass).
+    periodic_replay : bool
+        At a constant set point without effects, once the state at the end of a chunk equals the state
+        a whole number of forcing periods earlier (each part within ``REPLAY_TOLERANCE`` = 1e-10 of its
+        norm), serve the following steps' channel rows from that period through the same decimation
+        instead of integrating, until the set point, the effects or the dt rule's setting changes;
+        integration then resumes from the state integration would hold (docs/solver.md, "Periodic
+        replay at steady state"; simulator_replay.py). Chaotic or quasi-periodic motion never engages
+        it, and until it engages the stream is bit for bit the one without it. Default False (the
+        calibration, the sweeps, ``record``); the ROS node turns it on (parameter ``periodic_replay``).
     system_builder : callable, optional
         ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
     """
@@ -221,6 +231,7 @@ class Simulator(SystemCache, Stepping, Stream):
         event_average: bool = True,
         average_table_jumps: bool = False,
         streamed_misalignment: bool = True,
+        periodic_replay: bool = False,
     ) -> None:
         _check_speed(speed_rpm)
         cut_ok = modal_cutoff_hz is None or modal_cutoff_hz == "auto"
@@ -286,6 +297,9 @@ class Simulator(SystemCache, Stepping, Stream):
         if not isinstance(average_table_jumps, bool | np.bool_):
             raise ValueError(f"average_table_jumps: {average_table_jumps!r} must be True or False")
         self.average_table_jumps = bool(average_table_jumps)
+        if not isinstance(periodic_replay, bool | np.bool_):
+            raise ValueError(f"periodic_replay: {periodic_replay!r} must be True or False")
+        self._replay = PeriodicReplay() if periodic_replay else None
         self.one_setting = bool(one_setting) and contact_loss_rate_hz is not None
         self._loss_mode = self.one_setting  # the dt rule's contact-loss setting is active
         self._separated = False  # the teeth separated in the current dt-rule window
@@ -382,10 +396,23 @@ class Simulator(SystemCache, Stepping, Stream):
 
     @property
     def state(self) -> SolverState:
+        self._replay_sync()
         return self._state.copy()
+
+    @property
+    def replay(self) -> PeriodicReplay | None:
+        """The periodic replay's status (``active``, ``period_steps``, ``engaged_at_s``, ...); None
+        without ``periodic_replay``."""
+        return self._replay
+
+    def _replay_sync(self) -> None:
+        """While the stream is replayed, make the carried state the one integration would hold now."""
+        if self._replay is not None:
+            self._replay.sync(self)
 
     def set_targets(self, speed_rpm: float | None = None, temperature_c: float | None = None) -> None:
         """New set-points, approached at the ramp rates from the current integration time."""
+        self._replay_sync()  # the state the new ramp starts from
         t = self._raw_time
         if speed_rpm is not None:
             _check_speed(speed_rpm)
@@ -407,6 +434,8 @@ class Simulator(SystemCache, Stepping, Stream):
         integration runs the decimation filter's group delay (about 25 output samples) ahead of the
         last emitted sample: the change shows from there.
         """
+        if self._replay is not None:
+            self._replay.stop(self)  # the state the new effects start from
         effects = tuple(effects)
         cfg = _modified_config(self.base_cfg, effects)
         self.effects = effects

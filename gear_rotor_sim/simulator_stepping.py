@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from gear_rotor_sim.simulator_replay import PeriodicReplay
 from gear_rotor_sim.simulator_systems import TEMPERATURE_QUANTUM_C
 from gear_rotor_sim.solver.dt_rule import (
     light_mesh_modes,
@@ -119,6 +120,7 @@ class Stepping:
         return self._seg_t0 + self._raw * self.dt
 
     _pending_n: int = 0  # outputs completed by the last raw chunk beyond what its block took
+    _replay: PeriodicReplay | None = None  # Simulator(periodic_replay=True): simulator_replay.py
 
     def _limit_chunk(self, n_steps: int, t_raw: float, dt: float) -> int:
         n = min(n_steps, _MAX_CHUNK_STEPS)
@@ -157,7 +159,18 @@ class Stepping:
 
     def _run_steps(self, n: int) -> tuple[int, int, int]:
         """Integrate ``n`` raw steps; return the outputs now complete (with those left over from the
-        previous call), the steps with contact loss and those with back-side contact."""
+        previous call), the steps with contact loss and those with back-side contact.
+
+        With ``periodic_replay`` the steps come from the stored period while the stream repeats
+        (simulator_replay.py; docs/solver.md, "Periodic replay at steady state")."""
+        rep = self._replay
+        if rep is not None and rep.active:
+            served = rep.serve(self, n)
+            if served is not None:
+                self.locate_events = self._locate_now()
+                j = np.arange(self._raw, self._raw + n + 2, dtype=float)
+                t = self._seg_t0 + j * self.dt
+                return self._emit_steps(n, served[0], served[1], t, None)
         t_raw = self._raw_time
         # operating point at the chunk start (quantised)
         s_now = float(self._speed.value(t_raw))
@@ -188,9 +201,23 @@ class Stepping:
         angle = self._angle0 + self._speed.integral(t) * (2.0 * np.pi / 60.0)
         self.locate_events = self._locate_now()
         self._stepper.locate_events = self.locate_events
+        key = None
+        if rep is not None:
+            key = rep.key_of(self)
+            angle = rep.begin(self, key, angle)
         ch, _, _, fm, states, _ = self._stepper.run(t, angle, speed, self._state)
         if self._mis.active:
             self._mis.push(angle[1:-1], fm)
+        if rep is not None:
+            rep.observe(self, key, self._raw, ch, states)
+        return self._emit_steps(n, ch, states, t, speed)
+
+    def _emit_steps(
+        self, n: int, ch: np.ndarray, states: np.ndarray, t: np.ndarray, speed: np.ndarray | None
+    ) -> tuple[int, int, int]:
+        """Advance the raw index over ``n`` steps whose channel rows and contact states are ``ch``,
+        ``states`` (times ``t`` with a neighbour on each side, input speed ``speed`` in rad/s, None
+        when held at the target): the dt rule, the decimator's store and the chunk's counts."""
         self._raw += n
         self._update_dt_rule(states)
         self._update_misalignment()
@@ -198,7 +225,8 @@ class Stepping:
         # set-point held over the whole chunk as one value (the decimator returns it exactly where it
         # fills an output's window, without filtering it)
         sp = self._speed
-        speed_col = sp.target if float(sp.value(t[1])) == sp.target else speed[1:-1] * 60.0 / (2.0 * np.pi)
+        held = speed is None or float(sp.value(t[1])) == sp.target
+        speed_col = sp.target if held else speed[1:-1] * 60.0 / (2.0 * np.pi)
         tr = self._temp
         temp_col = tr.target if float(tr.value(t[1])) == tr.target else tr.value(t[1:-1])
         n_y = self._dec.push(ch, speed_col, temp_col) + self._pending_n
@@ -239,7 +267,10 @@ class Stepping:
         s_now = float(self._speed.value(t))
         s_end = float(self._speed.value(t + 0.05))
         k_req = self._k_required(s_now, s_end, system)
-        if k_req > self._k or k_req <= 0.75 * self._k:
+        regrid = k_req > self._k or k_req <= 0.75 * self._k
+        if self._replay is not None and (regrid or self._raw > 1 << 40):
+            self._replay.stop(self)  # the raw grid changes: the state made current first
+        if regrid:
             self._dec.regrid(k_req, self._raw)
             self._seg_out0 += self._raw // self._k
             self._seg_t0 = t

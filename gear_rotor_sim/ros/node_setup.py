@@ -119,6 +119,7 @@ def build_model(v: dict[str, Any], streams: list[StreamSpec]) -> NodeModel:
             steps_per_mesh=int(v["steps_per_mesh"]),
             contact_loss_rate_hz=float(v["contact_loss_rate_hz"]) or None,
             event_average=bool(v["event_average"]),
+            periodic_replay=bool(v["periodic_replay"]),
             speed_ramp_rpm_per_s=float(v["speed_ramp_rpm_per_s"]),
             temperature_ramp_c_per_s=float(v["temperature_ramp_c_per_s"]),
             effects=faults.effects(),

@@ -254,6 +254,13 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "events change in the step's mean (Simulator(event_average=True)): removes the fold of the "
         "mesh force's harmonics into the band at high speed (docs/solver.md, Session 10).",
     ),
+    ParamSpec(
+        "periodic_replay",
+        True,
+        "At a constant set point without faults, once the state repeats after a whole number of forcing "
+        "periods (to 1e-10), stream the stored period instead of integrating until a set point or the "
+        "faults change (Simulator(periodic_replay=True), docs/solver.md, Periodic replay at steady state).",
+    ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
         "publish.bearings",
