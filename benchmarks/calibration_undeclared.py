@@ -50,6 +50,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import calibration_independent as ci
 import undeclared_disturbances as ud
+import undeclared_probe as up
 
 from lumped_gearbox import CONTACT_RPM, RATTLE_RPM, make_record, write_record
 from lumped_gearbox.record import Record
@@ -64,7 +65,10 @@ BASES: dict[str, tuple[str | None, int, float]] = {
     "outer_race": (ci.FAULTS[8], 19, CONTACT_RPM),  # contact_outer_race_defect: 300 N
     "ball": (ci.FAULTS[10], 21, CONTACT_RPM),  # contact_ball_defect: 300 N
     "healthy_8000": (None, 35, RATTLE_RPM),  # healthy_8000rpm_25C
+    "healthy_125C": (None, 36, CONTACT_RPM),  # healthy_3000rpm_125C (the axial force's mean 1.8 kN)
 }
+#: a base record's declared temperature where it is not 25 C
+BASE_TEMPERATURE_C: dict[str, float] = {"healthy_125C": 125.0}
 
 #: a disturbance applied to the noisy record in place (data, time axis) at sample rate ``fs``
 Post = Callable[[Record, float], None]
@@ -399,8 +403,152 @@ def sensor_transfer_cases() -> list[Undeclared]:
     ]
 
 
+#: the bases every session-20 probe runs on: healthy at 3000 and 8000 rpm, three contact faults
+PROBE_BASES = ("healthy", "healthy_8000", "tooth_pinion", "outer_race", "gear_ecc")
+
+
+def probe_cases() -> list[Undeclared]:
+    """Session 20 (rprobe11, history Sec. 8.53): a sample clock off, force-sensor zeros, mount resonances
+    on both accelerometers, coarse quantisation, a slow baseline wander, cross-talk and a force channel's
+    skew."""
+    clock_kw, clock_post = up.clock_error(0.003)
+    return [
+        Undeclared(
+            "fz_offset_+50N",
+            "bearing2_fz zero offset +50 N (the axial force is the model's thermometer: 2.7 C)",
+            (*PROBE_BASES, "healthy_125C"),
+            "bearing2_fz",
+            offset("bearing2_fz", 50.0),
+            keyword="zero offset",
+        ),
+        Undeclared(
+            "crosstalk_fy_fz_5pct",
+            "5 % of bearing2_fy summed into bearing2_fz (a tri-axial load cell's cross-axis sensitivity)",
+            PROBE_BASES,
+            "bearing2_fz",
+            up.crosstalk("bearing2_fy", "bearing2_fz", 0.05),
+            keyword="zero offset",
+        ),
+        Undeclared(
+            "clock_+0.3pct",
+            "sample clock 0.3 % fast: generated at 20060 Hz, the file says 20000 Hz",
+            PROBE_BASES,
+            record_kw=clock_kw,
+            post=clock_post,
+        ),
+        Undeclared(
+            "skew_bearing2_fx_3",
+            "bearing2_fx delayed by 3 samples against the other channels",
+            PROBE_BASES,
+            "bearing2_fx",
+            delay("bearing2_fx", 3),
+            keyword="delay",
+        ),
+        Undeclared(
+            "mount_res_node5_axy",
+            "node5_ax and node5_ay on compliant mounts: resonance at 6 kHz, Q 15",
+            PROBE_BASES,
+            ("node5_ax", "node5_ay"),
+            up.mount_resonances(("node5_ax", "node5_ay")),
+            keyword="resonance",
+        ),
+        Undeclared(
+            "fy_offset_-5pct",
+            "bearing2_fy zero offset of 5 % of its mean (-67 N on the 3000 rpm healthy record)",
+            PROBE_BASES,
+            "bearing2_fy",
+            offset("bearing2_fy", -67.0),
+            keyword="measured mean",
+        ),
+        Undeclared(
+            "quantise_10bit_x8",
+            "every channel quantised to 10 bits over +-8 x its peak",
+            PROBE_BASES,
+            post=up.quantise(10, 8.0),
+        ),
+        Undeclared(
+            "wander_0.3-5Hz",
+            "every channel: a random baseline wander at 0.3-5 Hz, 0.2 x its RMS",
+            PROBE_BASES,
+            post=up.baseline_wander(),
+        ),
+        Undeclared(
+            "pink_1f",
+            "every channel's noise 1/f (pink) instead of white, same standard deviation",
+            ("healthy_8000", "outer_race", "gear_ecc"),
+            post=ud.pink_noise(),
+        ),
+        Undeclared(
+            "crosstalk_ax_ay_10pct",
+            "10 % of node5_ax summed into node5_ay (an accelerometer's cross-axis sensitivity)",
+            PROBE_BASES,
+            "node5_ay",
+            up.crosstalk("node5_ax", "node5_ay", 0.10),
+            keyword="cross",
+        ),
+        Undeclared(
+            "fz_drift_0-60N",
+            "bearing2_fz zero drifting 0 -> 60 N over the record (or a temperature rising 3.3 C)",
+            ("healthy", "tooth_pinion", "healthy_125C"),
+            "bearing2_fz",
+            up.zero_drift("bearing2_fz", 0.0, 60.0),
+            keyword="drift",
+        ),
+    ]
+
+
 EFFECTS += mains_cases()
 EFFECTS += sensor_transfer_cases()
+EFFECTS += probe_cases()
+
+
+def mains_neighbour_cases() -> list[Undeclared]:
+    """Session 20 (rmains11, history Sec. 8.54): mains hum split over three channels on the input shaft's
+    orders at 3000 rpm, and a neighbouring machine's tones (24.7 Hz = 1482 rpm, and 2x-4x: 49.4 Hz lies
+    0.6 Hz from the input shaft's order 1 at 3000 rpm, 98.8 Hz 1.2 Hz from its order 2) on every channel
+    through the foundation, or on the accelerometers only."""
+    acc = ("node5_ax", "node5_ay")
+    return [
+        Undeclared(
+            "mains_50hz_split3",
+            "50 Hz mains at 0.2 RMS on node5_ax, node5_ay and bearing2_fy (each alone a small share)",
+            ("healthy", "unbalance"),
+            ("node5_ax", "node5_ay", "bearing2_fy"),
+            _mains_on(("node5_ax", "node5_ay", "bearing2_fy"), 0.2),
+            keyword="mains",
+        ),
+        Undeclared(
+            "neighbour_24.7hz_all",
+            "a neighbouring machine's 24.7 Hz and 2x-4x (0.3, 0.15, 0.1, 0.05 RMS) on every channel",
+            ("healthy", "tooth_pinion", "unbalance", "outer_race", "ball", "healthy_8000"),
+            ALL_COLUMNS,
+            ud.neighbour_machine(ALL_COLUMNS),
+            keyword="neighbouring",
+        ),
+        Undeclared(
+            "neighbour_24.7hz_acc",
+            "a neighbouring machine's 24.7 Hz and 2x-4x on the two accelerometers only",
+            ("healthy", "gear_ecc", "unbalance"),
+            acc,
+            ud.neighbour_machine(acc),
+            keyword="neighbouring",
+        ),
+    ]
+
+
+def _mains_on(cols: tuple[str, ...], fraction: float) -> Post:
+    """50 Hz hum of ``fraction`` x each column's RMS on several columns (``undeclared_disturbances.mains_hum``
+    on each)."""
+    posts = [ud.mains_hum(c, 50.0, {1: fraction}) for c in cols]
+
+    def post(rec: Record, fs: float) -> None:
+        for p in posts:
+            p(rec, fs)
+
+    return post
+
+
+EFFECTS += mains_neighbour_cases()
 
 
 @dataclass(frozen=True)
@@ -418,7 +566,8 @@ class Case:
 
     def judged(self) -> ci.Case:
         """The table's case type, for ``ci.judge`` (a baseline property is not a fault to name)."""
-        return ci.Case(self.tag, BASES[self.base][2], 25.0, self.fault, BASES[self.base][1])
+        temp = BASE_TEMPERATURE_C.get(self.base, 25.0)
+        return ci.Case(self.tag, BASES[self.base][2], temp, self.fault, BASES[self.base][1])
 
 
 def cases() -> list[Case]:
@@ -430,7 +579,8 @@ def make(case: Case, out: Path) -> Path:
     faults = [f for f in (case.fault, case.effect.extra_fault) if f]
     kw = {"duration_s": 2.0, **case.effect.record_kw}
     _, seed, speed = BASES[case.base]
-    rec = make_record(speed, 25.0, faults, seed=seed, sampling="daq", **kw)
+    temp = BASE_TEMPERATURE_C.get(case.base, 25.0)
+    rec = make_record(speed, temp, faults, seed=seed, sampling="daq", **kw)
     if case.effect.post is not None:
         fs = 1.0 / float(rec.time_s[1] - rec.time_s[0])
         case.effect.post(rec, fs)
