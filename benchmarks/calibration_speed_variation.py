@@ -3,11 +3,11 @@
 ``lumped_gearbox`` makes each record with a speed profile (``make_record(..., speed_profile=...)``,
 docs/independent_data.md "Speed profile"): a linear drift of ``+-0.5 %`` or ``+-1.5 %`` over the record
 (centred: the declared speed is the mean) or a fluctuation of 0.5 % at 2 Hz, 1 % at 5 Hz or 0.3 % at the
-gear's shaft rate at 3000 rpm (29.6 Hz). The sidecar declares the
+gear's shaft rate (29.6 Hz at 3000 rpm, 78.9 Hz at 8000 rpm). The sidecar declares the
 mean speed and says nothing of the variation (``.truth.json`` holds the profile). Records: the table's
 3000 rpm faults (healthy, pinion tooth, gear tooth, pinion eccentricity, unbalance, gear misalignment,
 wear, outer race, ball) with each profile, and at 8000 rpm (teeth separating) the healthy record and
-the pinion tooth with a +1.5 % drift and the fluctuation. Each record is diagnosed by
+the pinion tooth with a +1.5 % drift and the three fluctuations. Each record is diagnosed by
 ``gear-rotor-sim calibrate RECORD --json`` and, unless ``--no-baseline``, with ``--baseline`` (the
 table's constant-speed healthy 2000 rpm record of the same machine; with ``--reference-profile TAG`` a
 healthy 2000 rpm record with that speed profile, seed 999).
@@ -63,12 +63,17 @@ PROFILES: list[tuple[str, dict[str, float]]] = [
     # follows: periodic with the gear, it is synchronous content
     ("fluct1at5Hz", {"fluctuation_pct": 1.0, "fluctuation_hz": 5.0}),
     ("fluct0.3at29.6Hz", {"fluctuation_pct": 0.3, "fluctuation_hz": 3000.0 * 29.0 / 49.0 / 60.0}),
+    # the gear's shaft rate at 8000 rpm (session 20, Sec. 8.55)
+    ("fluct0.3at78.9Hz", {"fluctuation_pct": 0.3, "fluctuation_hz": 8000.0 * 29.0 / 49.0 / 60.0}),
 ]
-#: at the rattle point (8000 rpm): healthy and the pinion tooth, +1.5 % drift and the fluctuation
+#: at the rattle point (8000 rpm): healthy and the pinion tooth, +1.5 % drift and the fluctuations (1 % at
+#: 5 Hz and 0.3 % at the gear's rate there since session 20)
 RATTLE: list[tuple[str, str | None]] = [("healthy", None), ("tooth_pinion", ci.FAULTS[0])]
-RATTLE_PROFILES = ["drift+1.5", "fluct0.5at2Hz"]
+RATTLE_PROFILES = ["drift+1.5", "fluct0.5at2Hz", "fluct1at5Hz", "fluct0.3at78.9Hz"]
 #: seeds: 701 + 10 x (fault index) + (profile index); 8000 rpm: 801 + 10 x (fault index) + (profile index)
 SEED0, RATTLE_SEED0 = 701, 801
+#: profiles made only at 8000 rpm (a shaft rate there)
+RATTLE_ONLY = {"fluct0.3at78.9Hz"}
 
 
 @dataclass(frozen=True)
@@ -90,6 +95,8 @@ def cases(profiles: list[str] | None = None) -> list[VarCase]:
     out: list[VarCase] = []
     for fi, (name, fault) in enumerate(FAULTS_3000):
         for pi, p in enumerate(names):
+            if p in RATTLE_ONLY:
+                continue
             out.append(VarCase(f"c3000_{name}_{p}", CONTACT_RPM, fault, p, SEED0 + 10 * fi + pi))
     for fi, (name, fault) in enumerate(RATTLE):
         for p in RATTLE_PROFILES:

@@ -497,6 +497,55 @@ EFFECTS += sensor_transfer_cases()
 EFFECTS += probe_cases()
 
 
+def mains_neighbour_cases() -> list[Undeclared]:
+    """Session 20 (rmains11, history Sec. 8.54): mains hum split over three channels on the input shaft's
+    orders at 3000 rpm, and a neighbouring machine's tones (24.7 Hz = 1482 rpm, and 2x-4x: 49.4 Hz lies
+    0.6 Hz from the input shaft's order 1 at 3000 rpm, 98.8 Hz 1.2 Hz from its order 2) on every channel
+    through the foundation, or on the accelerometers only."""
+    acc = ("node5_ax", "node5_ay")
+    return [
+        Undeclared(
+            "mains_50hz_split3",
+            "50 Hz mains at 0.2 RMS on node5_ax, node5_ay and bearing2_fy (each alone a small share)",
+            ("healthy", "unbalance"),
+            ("node5_ax", "node5_ay", "bearing2_fy"),
+            _mains_on(("node5_ax", "node5_ay", "bearing2_fy"), 0.2),
+            keyword="mains",
+        ),
+        Undeclared(
+            "neighbour_24.7hz_all",
+            "a neighbouring machine's 24.7 Hz and 2x-4x (0.3, 0.15, 0.1, 0.05 RMS) on every channel",
+            ("healthy", "tooth_pinion", "unbalance", "outer_race", "ball", "healthy_8000"),
+            ALL_COLUMNS,
+            ud.neighbour_machine(ALL_COLUMNS),
+            keyword="neighbouring",
+        ),
+        Undeclared(
+            "neighbour_24.7hz_acc",
+            "a neighbouring machine's 24.7 Hz and 2x-4x on the two accelerometers only",
+            ("healthy", "gear_ecc", "unbalance"),
+            acc,
+            ud.neighbour_machine(acc),
+            keyword="neighbouring",
+        ),
+    ]
+
+
+def _mains_on(cols: tuple[str, ...], fraction: float) -> Post:
+    """50 Hz hum of ``fraction`` x each column's RMS on several columns (``undeclared_disturbances.mains_hum``
+    on each)."""
+    posts = [ud.mains_hum(c, 50.0, {1: fraction}) for c in cols]
+
+    def post(rec: Record, fs: float) -> None:
+        for p in posts:
+            p(rec, fs)
+
+    return post
+
+
+EFFECTS += mains_neighbour_cases()
+
+
 @dataclass(frozen=True)
 class Case:
     effect: Undeclared

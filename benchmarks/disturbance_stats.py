@@ -11,6 +11,8 @@ to ``--out`` once and reused. Docs: docs/history/calibration_sessions.md Sec. 8.
 added the events outside a regular train per channel (before the MIN_EVENTS threshold) and the mains check's
 statistic (``calibration/mains_check.py``): the largest line at a 50/60 Hz harmonic (1-10) that is no shaft's
 order at the declared speed, peak within EXACT_HZ, over its neighbourhood's median (LINE_SNR needed).
+Session 20 (Sec. 8.54) added the line removal's (``calibration/line_removal.py``): the lines it would
+remove, and the largest line locked to no shaft, mains harmonic or bearing frequency.
 
 Usage::
 
@@ -34,6 +36,7 @@ import calibration_heldout as ch
 import calibration_independent as ci
 import calibration_undeclared as cu
 
+from gear_rotor_sim.calibration import line_removal as lr
 from gear_rotor_sim.calibration import mains_check as mc
 from gear_rotor_sim.calibration import measurement_impulses as mi
 from gear_rotor_sim.calibration.measurement import load_measurement
@@ -99,6 +102,34 @@ def mains_margin(data: np.ndarray, fs: float, speed_rpm: float, cwru: bool) -> f
     return worst
 
 
+def unlocked_margin(data: np.ndarray, fs: float, speed_rpm: float, cwru: bool) -> tuple[int, float]:
+    """The line removal's statistic (``calibration/line_removal.py``, session 20): the number of lines it
+    removes, and the largest line in 5-250 Hz that is no shaft's order, no mains harmonic, no bearing line and
+    no order's sidelobe, read as a comb's fundamental is (``line_removal.line_at``; a neighbouring machine's
+    if it had a harmonic too), over its neighbourhood's median (only lines from LINE_SNR are read: 0 if none).
+    The CWRU rig has no mesh: not examined (0, 0)."""
+    if cwru:
+        return 0, 0.0
+    from gear_rotor_sim.faults.bearing import BEARING_6206
+
+    sp = speed_rpm / 60.0
+    shafts = [("input", sp), ("output", sp * 29.0 / 49.0)]
+    big_t = data.shape[0] / fs
+    n = len(lr.find_lines(data, fs, shafts, BEARING_6206.multiples()))
+    bearing = lr.bearing_lines_hz([f for _, f in shafts], BEARING_6206.multiples())
+    worst = 0.0
+    for c in range(data.shape[1]):
+        sp_c = mc.Spectrum(data[:, c], fs)
+        for f in lr.peaks(sp_c):
+            line = sp_c.line(float(f))
+            if line is None or not lr.is_unlocked(line[1], shafts, big_t, bearing):
+                continue
+            # as the comb's fundamental is read: fitted with the orders beside it, no far order's sidelobe
+            found = lr.line_at(data[:, c], sp_c, line[1], 0.5 / big_t, shafts)
+            worst = max(worst, found[1] if found is not None else 0.0)
+    return n, worst
+
+
 def stats(csv: Path) -> dict[str, Any]:
     """The checks' margins on one record, loaded as the calibration loads it."""
     t = time.process_time()
@@ -130,6 +161,9 @@ def stats(csv: Path) -> dict[str, Any]:
             row.setdefault("held", []).append(m.channels[k].column)
     row.update(peak_z=peaks, n_spikes=counts, n_random=random, longest_equal=longest, outside=outside)
     row["mains"] = mains_margin(m.data, fs, m.operating_point.speed_rpm, csv.suffix == ".mat")
+    row["removed"], row["unlocked"] = unlocked_margin(
+        m.data, fs, m.operating_point.speed_rpm, csv.suffix == ".mat"
+    )
     row["repeats"] = len(repeated_blocks(raw[np.all(np.isfinite(raw), axis=1)]))
     row["cpu_s"] = time.process_time() - t
     return row
@@ -158,10 +192,11 @@ def main(argv: list[str] | None = None) -> int:
     print(
         "| record | issues | largest interpolation error per channel (robust scales) | isolated "
         f"spikes >= {mi.Z_SPIKE:g} | outside a train | of them repaired | longest equal run | held | "
-        "repeated blocks | mains line off the orders (x median) |"
+        "repeated blocks | mains line off the orders (x median) | lines removed | largest unlocked line "
+        "(x median) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    worst = mains_worst = 0.0
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    worst = mains_worst = unlocked_worst = 0.0
     most_outside = 0
     fired = 0
     for tag, csv, maker in todo:
@@ -169,27 +204,30 @@ def main(argv: list[str] | None = None) -> int:
             maker()
         s = stats(csv)
         if "refused" in s:
-            print(f"| {tag} | refused: {s['refused']} | | | | | | | | |")
+            print(f"| {tag} | refused: {s['refused']} | | | | | | | | | | |")
             continue
         fires = s["issues"] > 0 or s.get("held") or s["repeats"] or max(s["n_random"]) >= mi.MIN_EVENTS
-        fires = fires or s["mains"] >= mc.LINE_SNR
+        fires = fires or s["mains"] >= mc.LINE_SNR or s["removed"] > 0
         fired += bool(fires)
         if not tag.startswith("undeclared"):
             worst = max(worst, *s["peak_z"])
             most_outside = max(most_outside, *s["outside"])
             mains_worst = max(mains_worst, s["mains"])
+            unlocked_worst = max(unlocked_worst, s["unlocked"])
         print(
             f"| {tag} | {s['issues']} | {', '.join(f'{z:.1f}' for z in s['peak_z'])} | "
             f"{', '.join(map(str, s['n_spikes']))} | {', '.join(map(str, s['outside']))} | "
             f"{', '.join(map(str, s['n_random']))} | {max(s['longest_equal'])} | {s.get('held', '-')} | "
-            f"{s['repeats']} | {s['mains']:.3g} |",
+            f"{s['repeats']} | {s['mains']:.3g} | {s['removed']} | {s['unlocked']:.3g} |",
             flush=True,
         )
     print(
         f"\n{len(todo)} records, {fired} with a finding; undisturbed records: largest interpolation error "
         f"{worst:.1f} robust scales, most events outside a train on a channel {most_outside} (repaired from "
         f"{mi.MIN_EVENTS}), largest mains line off the orders {mains_worst:.3g} x its neighbourhood (named "
-        f"from {mc.LINE_SNR:g}); load {load0:.1f} -> {os.getloadavg()[0]:.1f}"
+        f"from {mc.LINE_SNR:g}), largest line locked to no shaft, mains or bearing {unlocked_worst:.3g} x "
+        f"its neighbourhood (removed from {mc.LINE_SNR:g} with a harmonic); load {load0:.1f} -> "
+        f"{os.getloadavg()[0]:.1f}"
     )
     return 0
 

@@ -179,3 +179,28 @@ def mains_hum(
         rec.data[col] = x + hum
 
     return post
+
+
+def neighbour_machine(
+    cols: Sequence[str],
+    hz: float = 24.7,
+    harmonics: dict[int, float] | None = None,
+    phase: float = 0.7,
+) -> Post:
+    """A neighbouring machine's vibration through the foundation (a motor or pump at 1482 rpm): lines at
+    ``h x hz`` of amplitude ``sqrt(2) x fraction x`` each column's RMS about its mean, ``harmonics`` mapping
+    ``h`` to ``fraction`` (default 0.3, 0.15, 0.1, 0.05 for h = 1-4), at phase ``h x phase + 0.9 x`` the
+    column's index in ``cols`` (each path its own phase); locked to no shaft of the gearbox."""
+    fractions = harmonics or {1: 0.3, 2: 0.15, 3: 0.1, 4: 0.05}
+
+    def post(rec: Record, fs: float) -> None:
+        for i, col in enumerate(cols):
+            x = rec.data[col]
+            t = np.arange(x.size) / fs
+            rms = float(np.std(x))
+            rec.data[col] = x + sum(
+                math.sqrt(2.0) * a * rms * np.sin(2.0 * math.pi * h * hz * t + h * phase + 0.9 * i)
+                for h, a in fractions.items()
+            )
+
+    return post

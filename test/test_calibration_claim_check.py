@@ -158,3 +158,22 @@ def test_crack_claimed_as_a_tooth_is_not_a_confident_finding(tmp_path) -> None:
     d = r.as_dict()
     first = next(e for e in d["effects"] if e["label"] == "tooth_damage@pinion")
     assert first["status"] == "suspect" and first["confidence"] <= SUSPECT_CONFIDENCE
+
+
+def test_misalignment_forced_by_a_loose_housing_is_not_a_confident_finding(tmp_path) -> None:
+    """A loose bearing-2 housing lifted by the pinion's 3e-4 kg m unbalance (8000 rpm, 0.6 s, loss 0.9, 2 um
+    of bolt clearance; a fault built after the check): the calibration claims the driving unbalance and a
+    ``shaft_misalignment@node1`` the record does not have; the own-order spread over the lateral channels
+    marks the misalignment (bearing 2's x and y forces hold its order 2 in another split than a force at
+    node 1 makes)."""
+    fault = "loose_housing:stiffness_loss=0.9,clearance_m=2e-6,unbalance_kg_m=3e-4,phase_rad=1.0"
+    rec = make_record(8000.0, 25.0, [fault], duration_s=0.6, seed=46)
+    r = Calibrator(load_measurement(write_record(tmp_path / "loose.csv", rec))).run()
+    claims = {e.label: e for e in r.effects}
+    assert "mass_unbalance@node5" in claims, list(claims)
+    assert abs(claims["mass_unbalance@node5"].parameters["unbalance_kg_m"] / 3e-4 - 1.0) < 0.35
+    mis = claims.get("shaft_misalignment@node1")
+    assert mis is not None and mis.status == "suspect" and mis.confidence <= SUSPECT_CONFIDENCE
+    chk = next(c for c in r.claim_checks if c["label"] == "shaft_misalignment@node1")
+    assert "own_order" in chk["tests"] and chk["own_order"]["spread"] >= 2.0
+    assert any("differs between the lateral channels" in n for n in r.notes)

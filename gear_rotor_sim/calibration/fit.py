@@ -80,8 +80,10 @@ from gear_rotor_sim.calibration.fit_types import (
     reported_parameters,
 )
 from gear_rotor_sim.calibration.fit_verify import Verification
+from gear_rotor_sim.calibration.line_removal import remove_unlocked_lines
 from gear_rotor_sim.calibration.load_check import torque_entry
 from gear_rotor_sim.calibration.mains_check import mains_issues
+from gear_rotor_sim.calibration.mains_repair import copy_measurement, rerun_without_pickup
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice
 from gear_rotor_sim.calibration.model_window import model_window_samples
@@ -202,6 +204,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         speed_check: bool = True,
         load_check: bool = True,
     ) -> None:
+        # the arguments as given, the record copied: diagnosed again without mains pickup (mains_repair.py)
+        self._init_args = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
+        self._init_args["measurement"] = copy_measurement(measurement)
         if cfg is None:
             from gear_rotor_sim.config import load_config
 
@@ -295,6 +300,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
 
     def run(self) -> CalibrationResult:
         self._feat_correction: ModelFeatures | None = None
+        remove_unlocked_lines(self)  # mains off the orders, a neighbouring machine's tones (line_removal.py)
         base_out = check_conventions(self)  # _setup and the sensor conventions
         speed_errors = correction_errors(self)  # None unless the speed was corrected (speed_check.py)
         self._at_rattle = False
@@ -586,7 +592,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         self.m.issues.extend(mains_issues(self, result.residual_trace, model_after))
         # a claim that leaves content the model lacks in its own signature is not confident (claim_check.py)
         apply_claim_checks(result, self.runner.cfg)
-        return result
+        # mains pickup on a shaft order on one or two channels: diagnosed again without it (mains_repair.py)
+        return rerun_without_pickup(self, result, cur_feat, cur_score)
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:
         fs = self.m.sample_rate_hz

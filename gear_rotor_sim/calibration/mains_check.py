@@ -6,23 +6,25 @@ and at its harmonics ``h f_0`` (the odd ones strongest), on the channels wired a
 speed. The machine's own lines are its shafts' orders ``k f_s`` at the speed the record gives (Sec. 2,
 "Speed check"), so the speed decides what a line at ``h f_0`` can be:
 
-1. **Not an order** (``|h f_0 - k f_s| >= 1 / T`` for every shaft, ``T`` the record length: resolved from
-   every order): a line that stands :data:`LINE_SNR` above the channel's local spectrum, whose
-   peak lies within :data:`EXACT_HZ` of ``h f_0`` and that the final model does not hold
-   (:data:`MODEL_RATIO`) is not the machine's rotation: ``issues`` names the column, the frequency and the
-   nearest order. The synchronous features average it out; nothing else changes.
-2. **On an order** (closer than the resolution ``1 / T``: at 3000 rpm every order of a
-   shaft turning at 50 Hz is a 50 Hz harmonic): frequency cannot tell mains from the machine. Interference
-   is then content that no physical effect of the fitted model explains: in the final residual trace
-   (``residual_trace.py``) a shaft-order component of one channel whose largest feature is that order,
-   where the record holds :data:`MODEL_RATIO` times the model's amplitude, at least
-   :data:`MIN_RESIDUAL` sigma out and :data:`MIN_SHARE` of the final error. ``issues`` then says that the
-   line sits at a mains frequency on a shaft order and is not explained by the model: mains pickup or a
-   machine effect outside the library, which a record at another speed tells apart.
+1. **Not an order** (``|h f_0 - k f_s| >= 1 / T`` for every shaft, ``T`` the record's own length: resolved
+   from every order): since session 20 such lines are removed before the fit (``line_removal.py``, which
+   names them). What this module still names after the fit (:func:`off_order_lines`): a line that stands
+   :data:`LINE_SNR` above the channel's local spectrum, whose peak lies within :data:`EXACT_HZ` of
+   ``h f_0`` and that the final model does not hold (:data:`MODEL_RATIO`; the model's spectrum on its own
+   window): ``issues`` names the column, the frequency and the nearest order.
+2. **On an order** (closer than ``1 / T``: at 3000 rpm every order of a shaft turning at 50 Hz is a 50 Hz
+   harmonic): frequency cannot tell mains from the machine. Interference is then content that no physical
+   effect of the fitted model explains: in the final residual trace (``residual_trace.py``) the shaft-order
+   components whose largest feature is that order, where the record holds :data:`MODEL_RATIO` times the
+   model's amplitude and stands :data:`MIN_RESIDUAL` sigma out, summed over the channels (a hum split over
+   several channels is read together), holding at least :data:`MIN_SHARE` of the final error. ``issues``
+   then names the channels: mains pickup or a machine effect outside the library, which a record at
+   another speed tells apart. Where one or two channels hold it alone, ``mains_repair.py`` leaves their
+   orders at the mains harmonics out and diagnoses the record again.
 
 The check reads the calibration's final state and changes nothing in it (effects, errors, verdicts);
 its cost is one windowed DFT per channel and mains harmonic. Measured in
-docs/history/calibration_sessions.md Sec. 8.51.
+docs/history/calibration_sessions.md Secs. 8.51, 8.54.
 """
 
 from __future__ import annotations
@@ -123,7 +125,8 @@ def off_order_lines(
     Parameters
     ----------
     y, model : numpy.ndarray
-        Measured and final model signals ``(n, channels)`` (the model may be shorter: both are cut to it).
+        Measured and final model signals ``(n, channels)``: each spectrum on its own length (the model window
+        may be shorter; the line is resolved on the record's).
     fs : float
         Sample rate, Hz.
     names : sequence of str
@@ -136,10 +139,9 @@ def off_order_lines(
     list of dict
         ``channel, mains_hz, harmonic, frequency_hz, amplitude, over_local, over_model, nearest`` per line.
     """
-    n = min(y.shape[0], model.shape[0]) if model.size else y.shape[0]
-    big_t = n / fs
-    spectra = [Spectrum(y[:n, c], fs) for c in range(len(names))]
-    model_spectra = [Spectrum(model[:n, c], fs) for c in range(len(names))] if model.size else []
+    big_t = y.shape[0] / fs  # the record's own resolution (the model window may be shorter)
+    spectra = [Spectrum(y[:, c], fs) for c in range(len(names))]
+    model_spectra = [Spectrum(model[:, c], fs) for c in range(len(names))] if model.size else []
     out = []
     for f0 in MAINS_HZ:
         for h in range(1, MAX_HARMONIC + 1):
@@ -171,12 +173,21 @@ def off_order_lines(
 
 def on_order_lines(trace: dict[str, Any], shafts: Sequence[tuple[str, float]], big_t: float) -> list[dict]:
     """Case 2 of the module docstring: shaft-order components of the final residual trace at a mains
-    harmonic that the model lacks (``trace`` as ``residual_trace.trace_residual`` returns it)."""
+    harmonic that the model lacks (``trace`` as ``residual_trace.trace_residual`` returns it), summed over
+    the channels: a hum split over several channels (each below :data:`MIN_SHARE`) is read together.
+
+    Returns
+    -------
+    list of dict
+        Per shaft order at a mains harmonic whose channels hold at least :data:`MIN_SHARE` of the final error
+        together: ``shaft, order, frequency_hz, mains, share`` and ``channels`` (``channel, measured, model,
+        share`` each), largest share first.
+    """
     rate = dict(shafts)
-    out = []
+    groups: dict[tuple[str, int], dict[str, Any]] = {}
     for comp in trace.get("components", []):
         fam = str(comp.get("family", ""))
-        if not fam.startswith("shaft orders (") or comp.get("model_lacks_share", 0.0) < MIN_SHARE:
+        if not fam.startswith("shaft orders ("):
             continue
         shaft = fam[len("shaft orders (") : -1]
         top = comp.get("largest", {})
@@ -193,19 +204,20 @@ def on_order_lines(trace: dict[str, Any], shafts: Sequence[tuple[str, float]], b
         measured, model = float(top.get("measured_over_noise", 0.0)), float(top.get("model_over_noise", 0.0))
         if not mains or top.get("normalised_residual", 0.0) < MIN_RESIDUAL or measured < MODEL_RATIO * model:
             continue
-        out.append(
-            {
-                "channel": comp["channel"],
-                "shaft": shaft,
-                "order": k,
-                "frequency_hz": f,
-                "mains": mains[0],
-                "measured": measured,
-                "model": model,
-                "share": comp["model_lacks_share"],
-            }
+        g = groups.setdefault(
+            (shaft, k), {"shaft": shaft, "order": k, "frequency_hz": f, "mains": mains[0], "channels": []}
         )
-    return out
+        share = float(comp.get("model_lacks_share", 0.0))
+        g["channels"].append(
+            {"channel": comp["channel"], "measured": measured, "model": model, "share": share}
+        )
+    out = []
+    for g in groups.values():
+        g["channels"].sort(key=lambda c: -c["share"])
+        g["share"] = sum(c["share"] for c in g["channels"])
+        if g["share"] >= MIN_SHARE:
+            out.append(g)
+    return sorted(out, key=lambda g: -g["share"])
 
 
 def mains_issues(cal: Any, trace: dict[str, Any], model: np.ndarray) -> list[str]:
@@ -242,8 +254,7 @@ def mains_issues(cal: Any, trace: dict[str, Any], model: np.ndarray) -> list[str
                 "supply (or a motor's electromagnetic vibration at a mains harmonic), not a fault of the "
                 "gearbox; the synchronous features average it out"
             )
-    big_t = min(cmp.y.shape[0], model.shape[0]) / cmp.fs if model.size else cmp.y.shape[0] / cmp.fs
-    out += [_on_text(x) for x in on_order_lines(trace, shafts, big_t)]
+    out += [_on_text(x) for x in on_order_lines(trace, shafts, cmp.y.shape[0] / cmp.fs)]
     return out
 
 
@@ -258,12 +269,17 @@ def _off_text(x: dict[str, Any]) -> str:
 def _on_text(x: dict[str, Any]) -> str:
     f0, h = x["mains"]
     where = f"the {x['shaft']} shaft's order {x['order']} ({x['frequency_hz']:.3f} Hz)"
-    amp = f"measured {x['measured']:.3g}, model {x['model']:.3g} noise sigmas"
+    cols = ", ".join(
+        f"{c['channel']!r} (measured {c['measured']:.3g}, model {c['model']:.3g} noise sigmas, "
+        f"{100 * c['share']:.0f} %)"
+        for c in x["channels"]
+    )
+    one = len(x["channels"]) == 1
     return (
-        f"column {x['channel']!r}: {where} falls on the {f0:g} Hz mains frequency (x{h}) and the fitted "
-        f"model does not explain it ({amp}; {100 * x['share']:.0f} % of the final error): mains pickup on "
-        "this channel or a machine effect outside the library; on a shaft order frequency cannot tell them "
-        "apart (a record at another speed can)"
+        f"column{'' if one else 's'} {cols}: {where} falls on the {f0:g} Hz mains frequency (x{h}) and the "
+        f"fitted model does not explain it ({100 * x['share']:.0f} % of the final error): mains pickup on "
+        f"{'this channel' if one else 'these channels'} or a machine effect outside the library; on a shaft "
+        "order frequency cannot tell them apart (a record at another speed can)"
     )
 
 

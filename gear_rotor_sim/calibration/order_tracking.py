@@ -38,7 +38,14 @@ import numpy as np
 
 from gear_rotor_sim.calibration.measurement import Measurement, MeasurementError
 from gear_rotor_sim.calibration.speed_estimate import mesh_orders_per_input, slowest_shaft_ratio
+from gear_rotor_sim.calibration.speed_fast import track_faster
+from gear_rotor_sim.calibration.speed_order_locked import (
+    order_locked_fluctuation,
+    with_angle_modulation,
+    without_angle_modulation,
+)
 from gear_rotor_sim.calibration.speed_tracking import SpeedTrack, refine_track, track_speed
+from gear_rotor_sim.system import shaft_speed_ratios
 
 #: the angle's rms about its straight line must exceed this many sigma of its noise
 K_SIGMA = 5.0
@@ -113,6 +120,20 @@ class SpeedVariation:
             f"{s['fluctuation_hz']:.3g} Hz; angle {self.rms_deviation_rad:.3g} rad rms off uniform rotation "
             f"(limit {self.limit_rad:.2g}); every channel resampled to uniform shaft angle at the mean speed "
             "(order tracking) before the features"
+        ) + self._order_locked_text()
+
+    def _order_locked_text(self) -> str:
+        """The order-locked part of the ``issues`` line (empty when none was read)."""
+        mod = self.track.order_locked if self.track is not None else None
+        if mod is None:
+            return ""
+        rel = mod.amplitude_rad * mod.order * mod.shaft_ratio
+        f_hz = mod.order * mod.shaft_ratio * self.track.mean_rpm / 60.0
+        return (
+            f"; of it, an angle modulation locked to order {mod.order} of the shaft turning "
+            f"{mod.shaft_ratio:.4g} x the input: {mod.amplitude_rad:.2g} rad ({100 * rel:.2g} % of the speed "
+            f"at {f_hz:.3g} Hz; {mod.z:.0f} sigma, {mod.n_lines} lines' sidebands; no tracking kernel "
+            "follows it: a coupling or a torsional response at that shaft's rate), added to the tracked angle"
         )
 
 
@@ -231,7 +252,10 @@ def check_speed_variation(measurement: Measurement, cfg: Any) -> tuple[Measureme
     if not orders:
         return measurement, None
     declared = measurement.operating_point.speed_rpm
-    tr = track_speed(measurement.data, measurement.sample_rate_hz, declared, orders, slowest_shaft_ratio(cfg))
+    ratio = slowest_shaft_ratio(cfg)
+    tr = track_speed(measurement.data, measurement.sample_rate_hz, declared, orders, ratio)
+    # a fluctuation faster than the first angle follows (speed_fast.py, Sec. 8.55)
+    tr = track_faster(measurement.data, measurement.sample_rate_hz, declared, orders, ratio, tr)
     tol = angle_tolerance_rad(cfg)
     if tr is None:
         return measurement, SpeedVariation(None, math.nan, tol)
@@ -241,7 +265,18 @@ def check_speed_variation(measurement: Measurement, cfg: Any) -> tuple[Measureme
         if seg_range > MAX_RANGE:
             raise MeasurementError(_refusal(measurement, declared, seg_range))
         return measurement, SpeedVariation(None, math.nan, tol)
+    # an angle modulation at a shaft's own order, which no kernel follows (speed_order_locked.py, Sec. 8.55)
+    fs = measurement.sample_rate_hz
+    mod = order_locked_fluctuation(measurement.data, fs, tr, orders, list(shaft_speed_ratios(cfg)), tol)
+    first = tr
     inner = _interior(tr)
+    # the paths' delays are regressed on the speed change the kernel follows: where that stays within its
+    # limit they are noise (11.7 ms on a bearing force at 0.3 % at the gear's rate), so the channels are then
+    # read along the common angle
+    rms_first = float(np.sqrt(np.mean(first.deviation_rad()[inner] ** 2)))
+    delays = rms_first > SpeedVariation(first, rms_first, tol).limit_rad
+    if mod is not None:
+        tr = with_angle_modulation(tr, mod, delays)
     rms = float(np.sqrt(np.mean(tr.deviation_rad()[inner] ** 2)))
     var = SpeedVariation(tr, rms, tol)
     if rms <= var.limit_rad:
@@ -250,9 +285,16 @@ def check_speed_variation(measurement: Measurement, cfg: Any) -> tuple[Measureme
     if max(rng, seg_range) > MAX_RANGE:
         raise MeasurementError(_refusal(measurement, declared, max(rng, seg_range)))
     var.varies = True
-    # the angle converged further before the resampling (speed_tracking.refine_track, Sec. 8.49)
-    tr = var.track = refine_track(measurement.data, measurement.sample_rate_hz, tr, orders)
+    # the angle converged further before the resampling (speed_tracking.refine_track, Sec. 8.49); with an
+    # order-locked part in it, so that the lines carry no shaft-order phase modulation that the kernel's
+    # one-sided ends would take up
+    tr = plain = var.track = refine_track(measurement.data, fs, tr, orders)
+    if mod is not None:
+        plain = without_angle_modulation(tr, mod)
+        tr = var.track = with_angle_modulation(plain, mod, delays)
     data = resample_channels(measurement.data, tr)
     issues = [*measurement.issues, var.describe()]
-    u = speed_change_on_grid(tr, data.shape[0])
+    # the speed change whose response speed_modulation.py removes: an order-locked part is synchronous with
+    # its shaft (the synchronous part holds its response), so it stays out of u (Sec. 8.55)
+    u = speed_change_on_grid(plain, data.shape[0])
     return dataclasses.replace(measurement, data=data, issues=issues, speed_change=u), var

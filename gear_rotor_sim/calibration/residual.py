@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from gear_rotor_sim.analysis.signals import analytic_band
+from gear_rotor_sim.calibration.mains_repair import leave_out_features
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_runner import (
     _CACHE,
@@ -203,6 +204,7 @@ class Comparison(EnvelopeFeatures):
             self.d_order.append(cs)
             self.v_order.append(vs)
         self._guard_zero_variance(self.m)
+        leave_out_features(self)  # mains pickup on a shaft order (mains_repair.py)
 
     def set_exact_orders(self, exact: bool) -> None:
         """Order features by the exact per-revolution integral (True) or by linear resampling to an

@@ -138,3 +138,6 @@ class ResidualSettings:
     #: rows that pass against the unconverged reference fail against the converged one (23 of 27 with
     #: ``--baseline``), and the converged reference's mesh damping sits at its grid edge (not identified)
     reference_exact_map: bool = False
+    #: order features left out, ``(model channel, shaft name, order)`` each (infinite variance): mains pickup
+    #: on a shaft order (``mains_repair.py``, docs/calibration.md Sec. 1); set by the calibration itself
+    left_out_orders: tuple[tuple[str, str, int], ...] = ()

@@ -39,7 +39,9 @@ mesh lines (a bearing rig) is not tracked.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.signal import fftconvolve
@@ -95,6 +97,14 @@ class SpeedTrack:
     channel_delay_s : numpy.ndarray or None
         Each channel's delay against the combination (its lines' weighted mean, s; 0 for a channel
         without a usable line): channel ``c``'s lines follow ``angle(t) - delay_c dw(t)``.
+    fast_pass : bool
+        Whether the angle comes from the wide passes of ``speed_fast.fast_track`` (a fluctuation faster
+        than the first angle follows).
+    fast_power_gain : float
+        The wide passes' coherent mesh power over the first track's (NaN: not tried).
+    order_locked : AngleModulation or None
+        An angle modulation at a shaft's own order added to the angle
+        (``speed_order_locked.with_angle_modulation``).
     """
 
     t: np.ndarray
@@ -109,6 +119,9 @@ class SpeedTrack:
     birge_ratio: float = 1.0
     delay_spread_s: float = 0.0
     channel_delay_s: np.ndarray | None = None
+    fast_pass: bool = False
+    fast_power_gain: float = math.nan
+    order_locked: Any = None
 
     @property
     def mean_rpm(self) -> float:
@@ -175,13 +188,41 @@ def smooth(z: np.ndarray, sig_n: float) -> np.ndarray:
     return (s2 * t0 - s1 * t1) / (s0 * s2 - s1 * s1)
 
 
+def _line_phases(
+    xc: np.ndarray,
+    theta: np.ndarray,
+    orders: list[float],
+    sig_n: float,
+    ring: np.ndarray,
+    coherent: bool = True,
+) -> Iterator[tuple[float, int, np.ndarray, float]]:
+    """Each usable line's order ``K``, channel, unwrapped phase (rad) and phase variance: the line shifted to
+    zero frequency along ``theta`` and low-passed by the Gaussian of ``sig_n`` samples; its white noise read
+    over the frequencies ``ring`` of the demodulated signal, its amplitude the filtered line's mean
+    (``coherent``) or its mean magnitude (the wide passes of ``speed_fast.py``: a phase that still swings)."""
+    n = xc.shape[0]
+    h2 = 1.0 / (2.0 * math.sqrt(math.pi) * sig_n)  # sum of the squared Gaussian kernel (unit sum)
+    for k in orders:
+        ph = np.exp(-1j * k * theta)
+        for c in range(xc.shape[1]):
+            z = xc[:, c] * ph
+            zf = smooth(z, sig_n)
+            a = abs(np.mean(zf)) if coherent else float(np.mean(np.abs(zf)))
+            if not a > 0:
+                continue
+            s2 = float(np.median(np.abs(np.fft.fft(z)[ring]) ** 2) / n) / math.log(2.0)
+            var_psi = s2 * h2 / (2.0 * a * a)
+            if not var_psi < MAX_PHASE_SIGMA**2:
+                continue
+            yield k, c, np.unwrap(np.angle(zf)), var_psi
+
+
 def _demodulate(
     xc: np.ndarray, fs: float, theta: np.ndarray, orders: list[float], sig_n: float, f_slow: float
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One phase-demodulation pass: each usable line's angle correction (rad, lines x samples, mean
     free), its weight ``K^2 / sigma_psi^2`` and its channel (empty when no line is usable)."""
     n = xc.shape[0]
-    h2 = 1.0 / (2.0 * math.sqrt(math.pi) * sig_n)  # sum of the squared Gaussian kernel (unit sum)
     f3 = 0.1325 / (sig_n / fs)  # the kernel's -3 dB frequency (Hz)
     freqs = np.fft.fftfreq(n, 1.0 / fs)
     ring = (np.abs(freqs) >= 1.5 * f3) & (np.abs(freqs) <= 0.8 * f_slow)
@@ -190,22 +231,10 @@ def _demodulate(
     chans: list[int] = []
     if np.count_nonzero(ring) < 8:
         return np.zeros((0, n)), np.zeros(0), np.zeros(0, dtype=int)
-    for k in orders:
-        ph = np.exp(-1j * k * theta)
-        for c in range(xc.shape[1]):
-            z = xc[:, c] * ph
-            zf = smooth(z, sig_n)
-            a = abs(np.mean(zf))
-            if not a > 0:
-                continue
-            s2 = float(np.median(np.abs(np.fft.fft(z)[ring]) ** 2) / n) / math.log(2.0)
-            var_psi = s2 * h2 / (2.0 * a * a)
-            if not var_psi < MAX_PHASE_SIGMA**2:
-                continue
-            psi = np.unwrap(np.angle(zf))
-            dev.append((psi - psi.mean()) / k)
-            wts.append(k * k / var_psi)
-            chans.append(c)
+    for k, c, psi, var_psi in _line_phases(xc, theta, orders, sig_n, ring):
+        dev.append((psi - psi.mean()) / k)
+        wts.append(k * k / var_psi)
+        chans.append(c)
     return np.array(dev).reshape(len(dev), n), np.array(wts), np.array(chans, dtype=int)
 
 
@@ -333,8 +362,7 @@ def _track(
         sel = ch == c
         if np.any(sel):
             delays[c] = float(wl[sel] @ tau[sel] / wl[sel].sum())
-    # the speed: the angle's derivative, lightly smoothed (the angle is already band-limited by the kernel)
-    speed = smooth(np.gradient(theta, 1.0 / fs), SPEED_SMOOTH * sig_n).real * 30.0 / math.pi
+    speed = speed_of_angle(theta, fs, sig_n)
     return SpeedTrack(
         t,
         theta - theta[0],
@@ -349,6 +377,12 @@ def _track(
         spread,
         delays,
     )
+
+
+def speed_of_angle(theta: np.ndarray, fs: float, sig_n: float) -> np.ndarray:
+    """The speed (rpm) of the angle ``theta``: its derivative, lightly smoothed (:data:`SPEED_SMOOTH` of the
+    kernel of ``sig_n`` samples; the angle is already band-limited by the kernel)."""
+    return smooth(np.gradient(theta, 1.0 / fs), SPEED_SMOOTH * sig_n).real * 30.0 / math.pi
 
 
 def refine_track(
