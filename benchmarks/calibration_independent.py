@@ -274,6 +274,18 @@ def _fmt(x: Any, spec: str = ".3g") -> str:
     return format(x, spec)
 
 
+def param_cell(r: dict[str, Any], sep: str = ": ") -> str:
+    """The table cell "main parameter fitted / truth (relative error)[, tooth fitted / truth]" of a judged row
+    (``judge``), ``-`` where the row has no main parameter; ``sep`` follows the parameter's name."""
+    if "param" not in r:
+        return "-"
+    rel = _fmt(r.get("rel_error"), "+.0%")
+    par = f"{r['param']}{sep}{_fmt(r.get('fitted'))} / {_fmt(r.get('truth_value'))} ({rel})"
+    if r.get("tooth"):
+        par += f", tooth {_fmt(r['tooth'][0], '')} / {r['tooth'][1]}"
+    return par
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     head = (
         "| record | truth | first effect | main parameter: fitted / truth (error) | error_before | "
@@ -283,14 +295,10 @@ def table(rows: list[dict[str, Any]]) -> str:
     lines = []
     for r in rows:
         c = r.get("checks", {})
+        par = param_cell(r)
         if "param" in r:
-            rel = _fmt(r["rel_error"], "+.0%")
-            par = f"{r['param']}: {_fmt(r['fitted'])} / {_fmt(r['truth_value'])} ({rel})"
-            if r.get("tooth"):
-                par += f", tooth {_fmt(r['tooth'][0], '')} / {r['tooth'][1]}"
             marks = [c.get(k) for k in ("named first", "param within 25 %", "error halved")]
         else:
-            par = "-"
             marks = [c.get("no effect claimed"), None, None]
         mk = ["yes" if m else ("no" if m is not None else "-") for m in marks]
         first = r.get("first", "-")

@@ -167,12 +167,7 @@ def table(rows: list[dict[str, Any]]) -> str:
         corr = "-"
         if r.get("load_error_before") is not None:
             corr = f"{ci._fmt(r['load_error_before'])} -> {ci._fmt(r['load_error_after'])}"
-        par = "-"
-        if "param" in r:
-            par = f"{r['param']} {ci._fmt(r.get('fitted'))} / {ci._fmt(r.get('truth_value'))}"
-            par += f" ({ci._fmt(r.get('rel_error'), '+.0%')})"
-            if r.get("tooth"):
-                par += f", tooth {r['tooth'][0]} / {r['tooth'][1]}"
+        par = ci.param_cell(r, " ")
         decl = "-" if r["declared_nm"] is None else f"{r['declared_nm']:g}"
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {r['true_nm']:g} / {decl} | {run_at} | {corr} | "

@@ -120,12 +120,7 @@ def table(rows: list[dict[str, Any]]) -> str:
     )
     lines = []
     for r in rows:
-        par = "-"
-        if "param" in r:
-            par = f"{r['param']} {ci._fmt(r.get('fitted'))} / {ci._fmt(r.get('truth_value'))}"
-            par += f" ({ci._fmt(r.get('rel_error'), '+.0%')})"
-            if r.get("tooth"):
-                par += f", tooth {r['tooth'][0]} / {r['tooth'][1]}"
+        par = ci.param_cell(r, " ")
         claimed = ", ".join(r.get("claimed") or []) or "nothing"
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {r['profile']} | {claimed} | {par} | "

@@ -176,12 +176,7 @@ def table(rows: list[dict[str, Any]]) -> str:
             if r.get("speed_error_before") is None
             else f"{_f(r['speed_error_before'])} -> {_f(r['speed_error_after'])}"
         )
-        par = "-"
-        if "param" in r:
-            rel = _f(r.get("rel_error"), "+.0%")
-            par = f"{r['param']} {_f(r.get('fitted'))} / {_f(r.get('truth_value'))} ({rel})"
-            if r.get("tooth"):
-                par += f", tooth {r['tooth'][0]} / {r['tooth'][1]}"
+        par = ci.param_cell(r, " ")
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {r['true_rpm']:g} / {r['declared_rpm']:g} | {meas} | "
             f"{corr} | "

@@ -146,12 +146,7 @@ def table(rows: list[dict[str, Any]]) -> str:
     )
     lines = []
     for r in rows:
-        par = "-"
-        if "param" in r:
-            par = f"{r['param']} {ci._fmt(r.get('fitted'))} / {ci._fmt(r.get('truth_value'))} "
-            par += f"({ci._fmt(r.get('rel_error'), '+.0%')})"
-            if r.get("tooth"):
-                par += f", tooth {r['tooth'][0]} / {r['tooth'][1]}"
+        par = ci.param_cell(r, " ")
         lines.append(
             f"| {r['record']} | `{r['truth']}` | {r['profile']} | {r['variation']} | {r.get('first', '-')} | "
             f"{par} | {ci._fmt(r.get('error_before'))} -> {ci._fmt(r.get('error_after'))} | {r['verdict']} | "

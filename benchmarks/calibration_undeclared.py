@@ -653,13 +653,7 @@ def table(rows: list[dict[str, Any]]) -> str:
     )
     lines = []
     for r in rows:
-        if "param" in r:
-            par = f"{r['param']}: {ci._fmt(r['fitted'])} / {ci._fmt(r['truth_value'])}"
-            par += f" ({ci._fmt(r['rel_error'], '+.0%')})"
-            if r.get("tooth"):
-                par += f", tooth {ci._fmt(r['tooth'][0], '')} / {r['tooth'][1]}"
-        else:
-            par = "-"
+        par = ci.param_cell(r)
         first = r.get("first", "-")
         if r.get("baseline_updates"):
             first += f" ({', '.join(r['baseline_updates'])})"
