@@ -643,6 +643,41 @@ def hum_cases() -> list[Undeclared]:
 EFFECTS += hum_cases()
 
 
+def clock_skew_cases() -> list[Undeclared]:
+    """Session 21 (rclock11, history Sec. 8.57): a sample clock off by 0.1 % and 0.5 % (0.3 %:
+    ``probe_cases``) on the probe's bases, and one channel delayed by 1 or 5 samples (3: above) on a force
+    channel and on an accelerometer."""
+    out = []
+    for pct in (0.1, 0.5):
+        kw, post = up.clock_error(pct / 100.0)
+        out.append(
+            Undeclared(
+                f"clock_+{pct:g}pct",
+                f"sample clock {pct:g} % fast: generated at {20000 * (1 + pct / 100):g} Hz, "
+                "the file says 20000 Hz",
+                PROBE_BASES,
+                record_kw=kw,
+                post=post,
+            )
+        )
+    for col in ("bearing2_fx", "node5_ay"):
+        for n in (1, 5):
+            out.append(
+                Undeclared(
+                    f"skew_{col}_{n}",
+                    f"{col} delayed by {n} sample{'s' if n > 1 else ''} against the other channels",
+                    ("healthy", "tooth_pinion"),
+                    col,
+                    delay(col, n),
+                    keyword="delay",
+                )
+            )
+    return out
+
+
+EFFECTS += clock_skew_cases()
+
+
 @dataclass(frozen=True)
 class Case:
     effect: Undeclared
