@@ -507,7 +507,7 @@ def mains_neighbour_cases() -> list[Undeclared]:
         Undeclared(
             "mains_50hz_split3",
             "50 Hz mains at 0.2 RMS on node5_ax, node5_ay and bearing2_fy (each alone a small share)",
-            ("healthy", "unbalance"),
+            ("healthy", "unbalance", "outer_race"),
             ("node5_ax", "node5_ay", "bearing2_fy"),
             _mains_on(("node5_ax", "node5_ay", "bearing2_fy"), 0.2),
             keyword="mains",
@@ -622,6 +622,25 @@ def zero_cases() -> list[Undeclared]:
 BASES["misalign"] = (ci.FAULTS[5], 16, CONTACT_RPM)  # contact_gear_misalignment: 1 mrad
 BASES["outer_race_8000"] = (ci.FAULTS[8], 30, RATTLE_RPM)  # rattle_outer_race_defect: 300 N
 EFFECTS += zero_cases()
+
+
+def hum_cases() -> list[Undeclared]:
+    """Session 21 (rhum11, history Sec. 8.59): 50 Hz hum on every channel (the input shaft's order 1 at
+    3000 rpm), over the faults whose own order-1 content it hides (``mains_50hz_split3`` above: three
+    channels)."""
+    return [
+        Undeclared(
+            "mains_50hz_all6",
+            "50 Hz mains at 0.2 RMS on all six channels (pickup through every cable)",
+            ("healthy", "unbalance", "outer_race"),
+            ALL_COLUMNS,
+            _mains_on(ALL_COLUMNS, 0.2),
+            keyword="mains",
+        ),
+    ]
+
+
+EFFECTS += hum_cases()
 
 
 def clock_skew_cases() -> list[Undeclared]:
