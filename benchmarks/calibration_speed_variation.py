@@ -3,9 +3,10 @@
 ``lumped_gearbox`` makes each record with a speed profile (``make_record(..., speed_profile=...)``,
 docs/independent_data.md "Speed profile"): a linear drift of ``+-0.5 %`` or ``+-1.5 %`` over the record
 (centred: the declared speed is the mean) or a fluctuation of 0.5 % at 2 Hz, 1 % at 5 Hz or 0.3 % at the
-gear's shaft rate (29.6 Hz at 3000 rpm, 78.9 Hz at 8000 rpm). The sidecar declares the
-mean speed and says nothing of the variation (``.truth.json`` holds the profile). Records: the table's
-3000 rpm faults (healthy, pinion tooth, gear tooth, pinion eccentricity, unbalance, gear misalignment,
+gear's shaft rate (29.6 Hz at 3000 rpm, 78.9 Hz at 8000 rpm), or of 0.3 % or 1 % at order 2 of the input or of
+the output shaft (``in2x*``, ``out2x*``: healthy, pinion tooth, gear misalignment at 3000 rpm). The sidecar
+declares the mean speed and says nothing of the variation (``.truth.json`` holds the profile). Records: the
+table's 3000 rpm faults (healthy, pinion tooth, gear tooth, pinion eccentricity, unbalance, gear misalignment,
 wear, outer race, ball) with each profile, and at 8000 rpm (teeth separating) the healthy record and
 the pinion tooth with a +1.5 % drift and the three fluctuations. Each record is diagnosed by
 ``gear-rotor-sim calibrate RECORD --json`` and, unless ``--no-baseline``, with ``--baseline`` (the
@@ -65,6 +66,12 @@ PROFILES: list[tuple[str, dict[str, float]]] = [
     ("fluct0.3at29.6Hz", {"fluctuation_pct": 0.3, "fluctuation_hz": 3000.0 * 29.0 / 49.0 / 60.0}),
     # the gear's shaft rate at 8000 rpm (session 20, Sec. 8.55)
     ("fluct0.3at78.9Hz", {"fluctuation_pct": 0.3, "fluctuation_hz": 8000.0 * 29.0 / 49.0 / 60.0}),
+    # at order 2 of the input (100 Hz) and of the output shaft (59.2 Hz) at 3000 rpm: a Cardan joint's 2x
+    # ripple (session 21, Sec. 8.60)
+    ("in2x0.3", {"fluctuation_pct": 0.3, "fluctuation_hz": 2.0 * 3000.0 / 60.0}),
+    ("in2x1", {"fluctuation_pct": 1.0, "fluctuation_hz": 2.0 * 3000.0 / 60.0}),
+    ("out2x0.3", {"fluctuation_pct": 0.3, "fluctuation_hz": 2.0 * 3000.0 * 29.0 / 49.0 / 60.0}),
+    ("out2x1", {"fluctuation_pct": 1.0, "fluctuation_hz": 2.0 * 3000.0 * 29.0 / 49.0 / 60.0}),
 ]
 #: at the rattle point (8000 rpm): healthy and the pinion tooth, +1.5 % drift and the fluctuations (1 % at
 #: 5 Hz and 0.3 % at the gear's rate there since session 20)
@@ -74,6 +81,11 @@ RATTLE_PROFILES = ["drift+1.5", "fluct0.5at2Hz", "fluct1at5Hz", "fluct0.3at78.9H
 SEED0, RATTLE_SEED0 = 701, 801
 #: profiles made only at 8000 rpm (a shaft rate there)
 RATTLE_ONLY = {"fluct0.3at78.9Hz"}
+#: the order-2 profiles, made at 3000 rpm for these faults only (the misalignment also modulates the mesh
+#: timing at its wheel's order 2), seeds 901 + 10 x (fault index) + (index among the order-2 profiles)
+ORDER2 = ["in2x0.3", "in2x1", "out2x0.3", "out2x1"]
+ORDER2_FAULTS = ["healthy", "tooth_pinion", "gear_misalignment"]
+ORDER2_SEED0 = 901
 
 
 @dataclass(frozen=True)
@@ -95,6 +107,11 @@ def cases(profiles: list[str] | None = None) -> list[VarCase]:
     out: list[VarCase] = []
     for fi, (name, fault) in enumerate(FAULTS_3000):
         for pi, p in enumerate(names):
+            if p in ORDER2:
+                if name in ORDER2_FAULTS:
+                    seed = ORDER2_SEED0 + 10 * fi + ORDER2.index(p)
+                    out.append(VarCase(f"c3000_{name}_{p}", CONTACT_RPM, fault, p, seed))
+                continue
             if p in RATTLE_ONLY:
                 continue
             out.append(VarCase(f"c3000_{name}_{p}", CONTACT_RPM, fault, p, SEED0 + 10 * fi + pi))

@@ -31,7 +31,9 @@ import math
 import os
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -41,6 +43,25 @@ def _records(paths: list[str], only: list[str] | None) -> list[Path]:
     for p in map(Path, paths):
         out += sorted(p.glob("*.csv")) if p.is_dir() else [p]
     return [r for r in out if not only or any(s in r.stem for s in only)]
+
+
+def first_tracks(
+    paths: list[str], only: list[str] | None, orders: list[float], ratio: float
+) -> Iterator[tuple[Path, Any, Any, float]]:
+    """Each record of ``paths`` with the speed check's first track (``track_speed`` then ``track_faster``, as
+    ``order_tracking.check_speed_variation`` makes it) and the CPU time it took: ``(csv, measurement, track,
+    cpu_s)``. Shared with speed_order2_stats.py."""
+    from gear_rotor_sim.calibration.measurement import load_measurement
+    from gear_rotor_sim.calibration.speed_fast import track_faster
+    from gear_rotor_sim.calibration.speed_tracking import track_speed
+
+    for csv in _records(paths, only):
+        m = load_measurement(csv)
+        rpm = m.operating_point.speed_rpm
+        c0 = time.process_time()
+        tr = track_speed(m.data, m.sample_rate_hz, rpm, orders, ratio)
+        tr = track_faster(m.data, m.sample_rate_hz, rpm, orders, ratio, tr)
+        yield csv, m, tr, time.process_time() - c0
 
 
 def _true_angle(csv: Path, t: np.ndarray, rpm: float) -> np.ndarray | None:
@@ -88,16 +109,14 @@ def _order_locked(data: np.ndarray, theta: np.ndarray, lines: list[float], ratio
 
 
 def main(argv: list[str] | None = None) -> int:
-    from gear_rotor_sim.calibration.measurement import load_measurement
     from gear_rotor_sim.calibration.order_tracking import (
         SpeedVariation,
         _interior,
         angle_tolerance_rad,
     )
     from gear_rotor_sim.calibration.speed_estimate import mesh_orders_per_input, slowest_shaft_ratio
-    from gear_rotor_sim.calibration.speed_fast import track_faster
     from gear_rotor_sim.calibration.speed_order_locked import order_locked_fluctuation, with_angle_modulation
-    from gear_rotor_sim.calibration.speed_tracking import _line_orders, refine_track, track_speed
+    from gear_rotor_sim.calibration.speed_tracking import _line_orders, refine_track
     from gear_rotor_sim.config import load_config
     from gear_rotor_sim.system import shaft_speed_ratios
 
@@ -115,17 +134,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     worst_const = 0.0
     t_start = time.perf_counter()
-    for csv in _records(args.paths, args.cases):
-        m = load_measurement(csv)
+    for csv, m, tr, cpu in first_tracks(args.paths, args.cases, orders, ratio):
         rpm = m.operating_point.speed_rpm
         c0 = time.process_time()
-        tr = track_speed(m.data, m.sample_rate_hz, rpm, orders, ratio)
-        tr = track_faster(m.data, m.sample_rate_hz, rpm, orders, ratio, tr)
         first = tr
         if tr is not None and tr.n_lines > 0:
             mod = order_locked_fluctuation(m.data, m.sample_rate_hz, tr, orders, ratios, tol)
             tr = with_angle_modulation(tr, mod) if mod is not None else tr
-        cpu = time.process_time() - c0
+        cpu += time.process_time() - c0
         if tr is None or tr.n_lines == 0:
             print(f"| {csv.stem} | not tracked | | | | | | | | | {cpu:.1f} |")
             continue

@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         "--speed-fluctuation-hz",
         type=float,
         default=0.0,
-        help="speed_profile.fluctuation_hz: its frequency, Hz (0 .. 50)",
+        help="speed_profile.fluctuation_hz: its frequency, Hz (0 .. 400)",
     )
     rec.add_argument(
         "--load-fluctuation-pct",

@@ -138,7 +138,7 @@ def make_record(
     speed_profile : SpeedProfile or dict, optional
         An input speed that varies within the record (:mod:`lumped_gearbox.speed_profile`):
         ``drift_pct`` (-10 .. 10, the change over the record, centred), ``fluctuation_pct`` (0 .. 5)
-        at ``fluctuation_hz`` (0 .. 50), ``fluctuation_phase_rad``; ``speed_rpm`` is the mean. The
+        at ``fluctuation_hz`` (0 .. 400), ``fluctuation_phase_rad``; ``speed_rpm`` is the mean. The
         sidecar still declares ``speed_rpm``; the truth file holds the profile. None (default): the
         constant speed of every earlier record (bit for bit).
     load_profile : LoadProfile or dict, optional

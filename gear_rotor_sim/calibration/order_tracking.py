@@ -133,8 +133,17 @@ class SpeedVariation:
             f"; of it, an angle modulation locked to order {mod.order} of the shaft turning "
             f"{mod.shaft_ratio:.4g} x the input: {mod.amplitude_rad:.2g} rad ({100 * rel:.2g} % of the speed "
             f"at {f_hz:.3g} Hz; {mod.z:.0f} sigma, {mod.n_lines} lines' sidebands; no tracking kernel "
-            "follows it: a coupling or a torsional response at that shaft's rate), added to the tracked angle"
+            f"follows it: {_ORDER_LOCKED_CAUSE.get(mod.order, _ORDER_LOCKED_CAUSE[2])}), added to the "
+            "tracked angle"
         )
+
+
+#: what an order-locked modulation may be, by order (the ``issues`` line)
+_ORDER_LOCKED_CAUSE = {
+    1: "a coupling or a torsional response at that shaft's rate",
+    2: "a Cardan joint's ripple, a coupling or a torsional response at that shaft's order; every mesh "
+    "harmonic reads it alike, a misaligned contact would not",
+}
 
 
 def drift_and_fluctuation(t: np.ndarray, v: np.ndarray) -> tuple[float, float, float]:

@@ -31,10 +31,18 @@ from gear_rotor_sim.calibration.speed_tracking import SpeedTrack, _line_orders, 
 
 #: shaft orders read (the others of the same shaft are the dominance test's reference)
 SHAFT_ORDERS = (1, 2, 3)
-#: the orders that may read as a speed fluctuation: a misaligned wheel modulates the mesh timing at its own
+#: the orders that may read as a speed fluctuation. A misaligned wheel modulates the mesh timing at its own
 #: order 2 alone (1.1e-3 to 4.4e-3 rad, 126-197 times its orders 1 and 3 on the three misalignment records of
-#: the 71), so at order 2 a speed fluctuation cannot be told from a misalignment
-FLUCTUATION_ORDERS = (1,)
+#: the 71), so order 2 is read only where every mesh harmonic reads the same modulation
+#: (:data:`KINEMATIC_ORDERS`, ``speed_order_harmonics.kinematic``; Sec. 8.60)
+FLUCTUATION_ORDERS = (1, 2)
+#: orders read only where the harmonics agree
+KINEMATIC_ORDERS = (2,)
+#: how many times the same shaft's other orders a harmonics-tested reading must be: a damaged tooth's flat
+#: comb (x1.0-1.02 over the orders) and a crack (x2-2.5) stay below it, and their readings are not kinematic
+#: (the pinion tooth's per-harmonic readings at its orders 1 and 3 differ 10-20 fold); 5 lost a 1 %
+#: input ripple over a pinion tooth's comb (x4.18)
+DOMINANCE_KINEMATIC = 3.0
 #: noise sigmas the modulation must stand out
 MIN_Z = 10.0
 #: how many times the same shaft's other orders it must be
@@ -76,11 +84,37 @@ class AngleModulation:
     n_lines: int
 
 
-def angle_modulation(
+@dataclass(frozen=True)
+class LineReadings:
+    """Per line (carrier x channel) readings of an angle modulation (:func:`line_readings`).
+
+    Attributes
+    ----------
+    harmonic : numpy.ndarray
+        The line's order of the input (a mesh harmonic).
+    channel : numpy.ndarray
+        Its channel's column index.
+    d : numpy.ndarray
+        ``(U / C - conj(L / C)) / (2 i K)``: the line's reading of the angle modulation (complex).
+    a : numpy.ndarray
+        ``(U / C + conj(L / C)) / 2``: its relative amplitude modulation (complex).
+    weight : numpy.ndarray
+        ``1 / var(d)`` from the noise next to the carrier.
+    """
+
+    harmonic: np.ndarray
+    channel: np.ndarray
+    d: np.ndarray
+    a: np.ndarray
+    weight: np.ndarray
+
+
+def line_readings(
     data: np.ndarray, theta: np.ndarray, lines: list[float], shaft_ratio: float, order: int
-) -> AngleModulation | None:
-    """The angle modulation at ``order`` of the shaft turning ``shaft_ratio`` times the input, read from
-    the mesh lines ``lines`` (orders of the input) along the input angle ``theta`` (module docstring).
+) -> LineReadings:
+    """Each carrier's (mesh harmonic ``lines`` x channel) reading of the angle modulation at ``order`` of
+    the shaft turning ``shaft_ratio`` times the input along the input angle ``theta`` (module
+    docstring); carriers standing less than :data:`MIN_CARRIER_SNR` above their noise are left out.
 
     Parameters
     ----------
@@ -95,15 +129,13 @@ def angle_modulation(
 
     Returns
     -------
-    AngleModulation or None
-        None when no carrier stands :data:`MIN_CARRIER_SNR` above its noise.
+    LineReadings
     """
     x = np.asarray(data, dtype=float)
     if x.ndim == 1:
         x = x[:, None]
     xc = x - x.mean(axis=0)
-    ds: list[complex] = []
-    ws: list[float] = []
+    rows: list[tuple[float, int, complex, complex, float]] = []
     s = order * shaft_ratio
     # exp(-i q theta) for q = k, k + s, k - s, k + the noise offsets: the carrier's phasor times shared ones
     shifts = np.exp(-1j * np.outer(np.concatenate(([0.0, s, -s], NOISE_OFFSETS)), theta))
@@ -114,11 +146,26 @@ def angle_modulation(
             carrier, up, low = c[0, ch], c[1, ch], c[2, ch]
             if not abs(carrier) ** 2 > MIN_CARRIER_SNR * noise[ch]:
                 continue
-            ds.append((up / carrier - np.conj(low / carrier)) / (2j * k))
-            ws.append(2.0 * k * k * abs(carrier) ** 2 / noise[ch])  # 1 / var(d)
-    if not ds:
+            d = (up / carrier - np.conj(low / carrier)) / (2j * k)
+            a = (up / carrier + np.conj(low / carrier)) / 2.0
+            rows.append((k, ch, d, a, 2.0 * k * k * abs(carrier) ** 2 / noise[ch]))  # 1 / var(d)
+    cols = list(zip(*rows, strict=True)) if rows else [(), (), (), (), ()]
+    return LineReadings(
+        np.array(cols[0], dtype=float),
+        np.array(cols[1], dtype=int),
+        np.array(cols[2], dtype=complex),
+        np.array(cols[3], dtype=complex),
+        np.array(cols[4], dtype=float),
+    )
+
+
+def combine(
+    rd: LineReadings, shaft_ratio: float, order: int, keep: np.ndarray | None = None
+) -> AngleModulation | None:
+    """The readings' (those where ``keep``) noise-weighted mean angle modulation, None without any."""
+    d, w = (rd.d, rd.weight) if keep is None else (rd.d[keep], rd.weight[keep])
+    if d.size == 0:
         return None
-    d, w = np.array(ds), np.array(ws)
     mean = complex(np.sum(w * d) / w.sum())
     chi2 = float(np.sum(w * np.abs(d - mean) ** 2)) / 2.0
     return AngleModulation(
@@ -130,6 +177,21 @@ def angle_modulation(
         chi2 / max(d.size - 1, 1),
         int(d.size),
     )
+
+
+def angle_modulation(
+    data: np.ndarray, theta: np.ndarray, lines: list[float], shaft_ratio: float, order: int
+) -> AngleModulation | None:
+    """The angle modulation at ``order`` of the shaft turning ``shaft_ratio`` times the input, read from
+    the mesh lines ``lines`` (orders of the input) along the input angle ``theta`` (module docstring):
+    :func:`line_readings` combined (:func:`combine`).
+
+    Returns
+    -------
+    AngleModulation or None
+        None when no carrier stands :data:`MIN_CARRIER_SNR` above its noise.
+    """
+    return combine(line_readings(data, theta, lines, shaft_ratio, order), shaft_ratio, order)
 
 
 def order_locked_fluctuation(
@@ -166,20 +228,25 @@ def order_locked_fluctuation(
     -------
     AngleModulation or None
     """
+    from gear_rotor_sim.calibration.speed_order_harmonics import kinematic
+
     lines = _line_orders(mesh_orders, tr.mean_rpm / 60.0, float(sample_rate_hz))
     best: AngleModulation | None = None
     for r in sorted({round(abs(float(v)), 12) for v in shaft_ratios}):
-        mods = [angle_modulation(data, tr.angle_rad, lines, r, j) for j in SHAFT_ORDERS]
+        rds = [line_readings(data, tr.angle_rad, lines, r, j) for j in SHAFT_ORDERS]
+        mods = [combine(rd, r, j) for rd, j in zip(rds, SHAFT_ORDERS, strict=True)]
         amps = [m.amplitude_rad if m is not None else 0.0 for m in mods]
         for i, m in enumerate(mods):
             if m is None or m.order not in FLUCTUATION_ORDERS:
                 continue
             others = max((a for k, a in enumerate(amps) if k != i), default=0.0)
+            tested = m.order in KINEMATIC_ORDERS
             if (
                 m.amplitude_rad / math.sqrt(2.0) > tolerance_rad
                 and m.z >= MIN_Z
-                and m.amplitude_rad >= DOMINANCE * others
+                and m.amplitude_rad >= (DOMINANCE_KINEMATIC if tested else DOMINANCE) * others
                 and (best is None or m.amplitude_rad > best.amplitude_rad)
+                and (not tested or kinematic(rds[i], m, mesh_orders))
             ):
                 best = m
     return best
