@@ -49,8 +49,8 @@ from gear_rotor_sim.solver import gear_kernel
 
 SPEEDS_RPM = (3000.0, 8000.0, 20000.0)
 #: The gear kernel's modules in the order their names are defined (docs/solver.md, "Module layout").
-KERNEL_MODULES = ("gear_tables", "gear_mesh_solve", "gear_events", "gear_jumps", "gear_output", "gear_loop",
-                  "gear_kernel")  # fmt: skip
+KERNEL_MODULES = ("gear_tables", "gear_mesh_solve", "gear_events", "gear_jumps", "gear_output", "gear_step",
+                  "gear_loop", "gear_kernel")  # fmt: skip
 DURATION_S = 0.2
 
 

@@ -428,7 +428,7 @@ def probe_cases() -> list[Undeclared]:
             PROBE_BASES,
             "bearing2_fz",
             up.crosstalk("bearing2_fy", "bearing2_fz", 0.05),
-            keyword="zero offset",
+            keyword="cross-talk",
         ),
         Undeclared(
             "clock_+0.3pct",
@@ -507,7 +507,7 @@ def mains_neighbour_cases() -> list[Undeclared]:
         Undeclared(
             "mains_50hz_split3",
             "50 Hz mains at 0.2 RMS on node5_ax, node5_ay and bearing2_fy (each alone a small share)",
-            ("healthy", "unbalance"),
+            ("healthy", "unbalance", "outer_race"),
             ("node5_ax", "node5_ay", "bearing2_fy"),
             _mains_on(("node5_ax", "node5_ay", "bearing2_fy"), 0.2),
             keyword="mains",
@@ -544,6 +544,138 @@ def _mains_on(cols: tuple[str, ...], fraction: float) -> Post:
 
 
 EFFECTS += mains_neighbour_cases()
+
+#: the bases of the session-21 sensor-zero rows (Sec. 8.58): the probe's and contact wear
+ZERO_BASES = (*PROBE_BASES, "wear")
+
+
+def mean_offset(col: str, fraction: float) -> Post:
+    """Add ``fraction`` x the column's own mean to it (a zero off by that share of the static load: +0.05
+    makes the mean's magnitude 5 % larger)."""
+
+    def post(rec: Record, fs: float) -> None:
+        x = rec.data[col]
+        rec.data[col] = x + fraction * float(np.mean(x))
+
+    return post
+
+
+def zero_cases() -> list[Undeclared]:
+    """Session 21 (rzero11, history Sec. 8.58): a radial force sensor's zero 5 % of its mean off (either
+    sign, x and y), and the session-17/20 DTE zero and axial cross-talk rows on the bases they were not run
+    on (healthy 8000 rpm, outer race, gear eccentricity; contact wear); the accelerometers exchanged or one
+    x2 on a gear misalignment and an 8000 rpm outer race (session 19 ran them on the healthy and eccentric
+    records)."""
+    radial = [
+        Undeclared(
+            f"{c}_zero_{s:+d}pct",
+            f"{c} zero off by {s:+d} % of its mean (the mean's magnitude {'larger' if s > 0 else 'smaller'})",
+            ZERO_BASES,
+            c,
+            mean_offset(c, s / 100.0),
+            keyword="zero",
+        )
+        for c in ("bearing2_fy", "bearing2_fx")
+        for s in (5, -5)
+    ]
+    more = [
+        Undeclared(
+            f"dte_offset_{v:+d}um",
+            f"DTE encoder zero {v:+d} um",
+            ("healthy_8000", "outer_race", "gear_ecc"),
+            "dte",
+            offset("dte", v * 1e-6),
+        )
+        for v in (5, -5)
+    ]
+    more.append(
+        Undeclared(
+            "crosstalk_fy_fz_5pct",
+            "5 % of bearing2_fy summed into bearing2_fz (a tri-axial load cell's cross-axis sensitivity)",
+            ("wear",),
+            "bearing2_fz",
+            up.crosstalk("bearing2_fy", "bearing2_fz", 0.05),
+            keyword="cross-talk",
+        )
+    )
+    accel_bases = ("misalign", "outer_race_8000")
+    more += [
+        Undeclared(
+            "swap_node5_axy",
+            "accelerometer x and y swapped",
+            accel_bases,
+            "node5_a",
+            swap("node5_ax", "node5_ay"),
+        ),
+        Undeclared(
+            "gain_x2_node5_ay",
+            "accelerometer node5_ay sensitivity x2",
+            accel_bases,
+            "node5_ay",
+            gain("node5_ay", 2.0),
+        ),
+    ]
+    return radial + more
+
+
+# faults whose reading rests on the accelerometers too (the table's records, same seeds)
+BASES["misalign"] = (ci.FAULTS[5], 16, CONTACT_RPM)  # contact_gear_misalignment: 1 mrad
+BASES["outer_race_8000"] = (ci.FAULTS[8], 30, RATTLE_RPM)  # rattle_outer_race_defect: 300 N
+EFFECTS += zero_cases()
+
+
+def hum_cases() -> list[Undeclared]:
+    """Session 21 (rhum11, history Sec. 8.59): 50 Hz hum on every channel (the input shaft's order 1 at
+    3000 rpm), over the faults whose own order-1 content it hides (``mains_50hz_split3`` above: three
+    channels)."""
+    return [
+        Undeclared(
+            "mains_50hz_all6",
+            "50 Hz mains at 0.2 RMS on all six channels (pickup through every cable)",
+            ("healthy", "unbalance", "outer_race"),
+            ALL_COLUMNS,
+            _mains_on(ALL_COLUMNS, 0.2),
+            keyword="mains",
+        ),
+    ]
+
+
+EFFECTS += hum_cases()
+
+
+def clock_skew_cases() -> list[Undeclared]:
+    """Session 21 (rclock11, history Sec. 8.57): a sample clock off by 0.1 % and 0.5 % (0.3 %:
+    ``probe_cases``) on the probe's bases, and one channel delayed by 1 or 5 samples (3: above) on a force
+    channel and on an accelerometer."""
+    out = []
+    for pct in (0.1, 0.5):
+        kw, post = up.clock_error(pct / 100.0)
+        out.append(
+            Undeclared(
+                f"clock_+{pct:g}pct",
+                f"sample clock {pct:g} % fast: generated at {20000 * (1 + pct / 100):g} Hz, "
+                "the file says 20000 Hz",
+                PROBE_BASES,
+                record_kw=kw,
+                post=post,
+            )
+        )
+    for col in ("bearing2_fx", "node5_ay"):
+        for n in (1, 5):
+            out.append(
+                Undeclared(
+                    f"skew_{col}_{n}",
+                    f"{col} delayed by {n} sample{'s' if n > 1 else ''} against the other channels",
+                    ("healthy", "tooth_pinion"),
+                    col,
+                    delay(col, n),
+                    keyword="delay",
+                )
+            )
+    return out
+
+
+EFFECTS += clock_skew_cases()
 
 
 @dataclass(frozen=True)

@@ -53,6 +53,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gear_rotor_sim.calibration.dte_zero import wear_reading
 from gear_rotor_sim.faults import ToothWear
 
 if TYPE_CHECKING:
@@ -151,6 +152,8 @@ def dte_mean_wear(cal: Calibrator, score: Score) -> tuple[ToothWear, Score, floa
             f"{eff.profile_scale:.2g}): not claimed"
         )
         return None
+    # what the depth rests on, for the report (dte_zero.py: a DTE zero offset reads the same)
+    cal.wear_mean_reading = wear_reading(eff, score, sc, r0, s0, cal.m.channels[c].column)
     return eff, sc, s0 / slope
 
 

@@ -1,6 +1,7 @@
 """Sensor conventions a sidecar can get wrong: a channel's sign, and a force sensor's sensitivity or axes;
 and a channel's own slow gain (``gain_modulation.py``, divided out first: :func:`correct_gain_modulation`), a
-drifting mean (``channel_drift.py``, :func:`correct_drift`) and an axial force's zero (``axial_zero.py``).
+drifting mean (``channel_drift.py``, :func:`correct_drift`), cross-talk into an axial force
+(``channel_leak.py``, :func:`correct_leak`) and an axial force's zero (``axial_zero.py``).
 
 Neither is a physical change of the machine, and neither is a nuisance the gain fit can absorb (the
 sensor gain is bounded to [0.8, 1.25], ``ResidualSettings.gain_bounds``). Read against the healthy
@@ -40,6 +41,8 @@ import numpy as np
 
 from gear_rotor_sim.calibration.axial_zero import find_axial_zero
 from gear_rotor_sim.calibration.channel_drift import channel_drift
+from gear_rotor_sim.calibration.channel_leak import leak_fix
+from gear_rotor_sim.calibration.channel_skew import correct_skew
 from gear_rotor_sim.calibration.gain_modulation import gain_modulation_fix
 from gear_rotor_sim.calibration.load_check import check_load, radial_channels
 
@@ -205,6 +208,20 @@ def correct_drift(cal: Any) -> None:
     _correct_before_setup(cal, fix)
 
 
+def correct_leak(cal: Any) -> None:
+    """Subtract a constant share of another force channel from an axial force channel (cross-talk,
+    ``channel_leak.py``) before the setup; a record without one is left untouched."""
+    chans = cal.m.channels
+    fix = leak_fix(
+        cal.m.data,
+        [c.column for c in chans],
+        [c.quantity for c in chans],
+        [c.direction for c in chans],
+        cal.m.sample_rate_hz,
+    )
+    _correct_before_setup(cal, fix)
+
+
 def _slowest_rate_hz(cal: Any) -> float:
     """The slowest shaft's rate (Hz) at the measurement's speed."""
     from gear_rotor_sim.system import shaft_rates_hz
@@ -251,7 +268,8 @@ def check_conventions(cal: Any) -> np.ndarray:
     the measurement is corrected, its ``issues`` get the entry, and the comparison and the healthy run
     are set up again from the start (the model runs come from the runner's cache), so the diagnosis
     is the one of the correctly signed record (before the setup: a channel's own slow gain divided out,
-    :func:`correct_gain_modulation`, and a drifting mean's trend removed, :func:`correct_drift`). Then an
+    :func:`correct_gain_modulation`, a drifting mean's trend removed, :func:`correct_drift`, and
+    cross-talk into an axial force subtracted, :func:`correct_leak`). Then an
     axial bearing force's zero offset that no claimable
     temperature explains is subtracted the same way (``axial_zero.find_axial_zero``), the load is checked
     (``load_check.check_load``) and the radial bearing-force means (:func:`radial_mean_issues`). A record
@@ -271,6 +289,7 @@ def check_conventions(cal: Any) -> np.ndarray:
     n_notes = len(cal.notes)
     correct_gain_modulation(cal)  # a channel's own slow gain, divided out (gain_modulation.py)
     correct_drift(cal)  # a channel's mean drifting over the record, its trend removed (channel_drift.py)
+    correct_leak(cal)  # cross-talk into an axial force, subtracted (channel_leak.py)
     base_out = cal._setup()
     cmp = cal.cmp
     if "order" in cmp.families and cmp.shafts:
@@ -280,6 +299,7 @@ def check_conventions(cal: Any) -> np.ndarray:
         fix = sign_fix(order_correlation(cmp.d_order, cmp.v_order, shifted.order), columns)
         if fix.channels:
             base_out = _set_up_again(cal, fix.apply(cal.m.data), fix.issues, n_notes)
+    base_out = correct_skew(cal, base_out, n_notes)  # a channel delayed by the acquisition (channel_skew.py)
     zeros = find_axial_zero(cal)  # an axial force's zero offset (axial_zero.py)
     if zeros:
         data = np.array(cal.m.data, dtype=float, copy=True)

@@ -51,7 +51,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gear_rotor_sim.calibration.search_rounds import mean_moved_further, verified_gain
+from gear_rotor_sim.calibration.radial_static import moved_judged_mean
+from gear_rotor_sim.calibration.search_rounds import verified_gain
 from gear_rotor_sim.faults import BASELINE_TYPES, Effect
 
 if TYPE_CHECKING:
@@ -146,7 +147,7 @@ def _updated(cal: Calibrator, pre: Sequence[Effect]) -> tuple[list[Effect], Any]
                 ver = cal._refine(f, [])
             except (ValueError, RuntimeError):
                 continue
-            if mean_moved_further(score, ver.score) is not None:
+            if moved_judged_mean(cal, score, ver.score, ver.effect.label) is not None:
                 continue
             if verified_gain(score, ver.score, f.k, n)[0] > thr:
                 took = (b, ver)
@@ -258,7 +259,7 @@ def updated_baseline_step(
             cal.notes.append(f"{f.effect.label}: baseline update not fitted ({exc})")
             continue
         dbic, expl = verified_gain(cur_score, ver.score, f.k, n_features)
-        off = mean_moved_further(cur_score, ver.score)
+        off = moved_judged_mean(cal, cur_score, ver.score, ver.effect.label)
         if off is not None:
             cal.notes.append(
                 f"{ver.effect.label}: baseline update not taken, it moves a channel mean that is "

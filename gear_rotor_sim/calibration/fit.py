@@ -62,6 +62,7 @@ from gear_rotor_sim.calibration.candidates_tooth_path import (
 from gear_rotor_sim.calibration.channel_conventions import check_conventions
 from gear_rotor_sim.calibration.claim_check import apply_claim_checks
 from gear_rotor_sim.calibration.confirm_updated import stalled_round_step
+from gear_rotor_sim.calibration.dte_zero import dte_zero_issues
 from gear_rotor_sim.calibration.features_bearing import impulse_note
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
 from gear_rotor_sim.calibration.fit_candidates import CandidateFitting
@@ -590,6 +591,8 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         )
         # mains lines off the orders, or on one and unexplained (mains_check.py): issues only
         self.m.issues.extend(mains_issues(self, result.residual_trace, model_after))
+        # a wear read from the DTE mean: a DTE zero offset reads the same (dte_zero.py): issues only
+        self.m.issues.extend(dte_zero_issues(self, found))
         # a claim that leaves content the model lacks in its own signature is not confident (claim_check.py)
         apply_claim_checks(result, self.runner.cfg)
         # mains pickup on a shaft order on one or two channels: diagnosed again without it (mains_repair.py)

@@ -19,8 +19,9 @@ speed. The machine's own lines are its shafts' orders ``k f_s`` at the speed the
    model's amplitude and stands :data:`MIN_RESIDUAL` sigma out, summed over the channels (a hum split over
    several channels is read together), holding at least :data:`MIN_SHARE` of the final error. ``issues``
    then names the channels: mains pickup or a machine effect outside the library, which a record at
-   another speed tells apart. Where one or two channels hold it alone, ``mains_repair.py`` leaves their
-   orders at the mains harmonics out and diagnoses the record again.
+   another speed tells apart. ``mains_repair.py`` then leaves out the orders of the channels that hold it
+   (of every channel where more than two do) and diagnoses the record again (``mains_pattern.py``: once
+   more where a kept channel's order is not in the pattern of the fitted effects).
 
 The check reads the calibration's final state and changes nothing in it (effects, errors, verdicts);
 its cost is one windowed DFT per channel and mains harmonic. Measured in

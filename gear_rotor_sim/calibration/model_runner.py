@@ -18,7 +18,12 @@ from gear_rotor_sim.calibration.features_bearing import anti_aliased_impacts
 from gear_rotor_sim.calibration.measurement import OperatingPoint
 from gear_rotor_sim.calibration.model_accel import MARGIN, differentiate, velocity_of
 from gear_rotor_sim.calibration.model_misalignment import mesh_force_run
-from gear_rotor_sim.calibration.model_settle import grown_start_samples, run_settled, whole_period_samples
+from gear_rotor_sim.calibration.model_settle import (
+    grown_start_samples,
+    run_settled,
+    whole_period_samples,
+    window_period_samples,
+)
 from gear_rotor_sim.calibration.model_window import hunting_period_s
 from gear_rotor_sim.faults.misalignment_force import needs_mesh_force, with_mesh_force
 from gear_rotor_sim.sensors.housing import HousingSensor as _StreamedHousingSensor
@@ -213,6 +218,8 @@ class ModelRunner:
         pad = MARGIN if any(vel) else 0
         period = whole_period_samples(hunting_period_s(self.cfg, speed), self.sample_rate_hz)
         pre = grown_start_samples(period, self.sample_rate_hz) if grown else 0
+        # a fractional period moves the window too, read at its original instants (model_settle.py)
+        move = window_period_samples(hunting_period_s(self.cfg, speed), self.sample_rate_hz)
         sim = Simulator(
             self.cfg,
             speed_rpm=speed,
@@ -235,7 +242,7 @@ class ModelRunner:
             sim.set_effects(tuple(effects))
         # the window holds no switch of the simulator's step rule (a start-up separation would put the
         # rule's contact-loss setting into it: model_settle.py); else it moves on by hunting periods
-        run = run_settled(sim, i0 - pad, n + 2 * pad, self.sample_rate_hz, period)
+        run = run_settled(sim, i0 - pad, n + 2 * pad, self.sample_rate_hz, move)
         data = run.data
         if data.shape[0] != n + 2 * pad:
             raise RuntimeError(f"simulator returned {data.shape[0]} samples, expected {n + 2 * pad}")

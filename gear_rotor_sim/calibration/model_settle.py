@@ -21,7 +21,12 @@ factor 3.6, not claimed).
 start, the window is moved on by whole hunting periods of the mesh, past the last change plus
 ``settle_s``: every library effect's response is periodic in the hunting period (``model_window.py``),
 so the features of the moved window equal those of a settled run at the original times (order
-phases included, when the period is a whole number of samples). A run whose rule keeps switching
+phases included). Where the period is not a whole number of samples (any speed whose hunting period
+is not a multiple of the sample interval: 4500 rpm at 20 kHz, a corrected speed, a record whose clock is
+not the declared one), the window is moved by the nearest whole number of samples and read at the
+original instants by band-limited interpolation (``fractional_delay.py``; before session 21 such a window
+was not moved at all, and a start-up separation stayed in it: the gear eccentricity of a record at 2991
+rpm read +76 %, docs/history/calibration_sessions.md Sec. 8.57). A run whose rule keeps switching
 (teeth separating in some windows only) is returned as it is after ``max_shifts`` moves.
 """
 
@@ -33,6 +38,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from gear_rotor_sim.calibration.fractional_delay import delay_samples
+from gear_rotor_sim.calibration.order_tracking import SINC_HALF_WIDTH
 
 #: ``Simulator.last_chunk_stats`` entries that describe the step rule's setting
 RULE_STATS = ("decimation", "contact_loss_rule", "exact_modal_map", "located")
@@ -66,6 +74,18 @@ def whole_period_samples(period_s: float | None, sample_rate_hz: float, tol: flo
     return int(n) if n >= 1 and abs(p - n) <= tol else None
 
 
+def window_period_samples(period_s: float | None, sample_rate_hz: float, tol: float = 0.01) -> float | None:
+    """The hunting period in output samples for moving a window (:func:`run_settled`): the whole number
+    where it is one within ``tol`` (:func:`whole_period_samples`), else the exact fractional count; None
+    without a period."""
+    whole = whole_period_samples(period_s, sample_rate_hz, tol)
+    if whole is not None:
+        return whole
+    if period_s is None or not period_s * sample_rate_hz >= 1.0:
+        return None
+    return float(period_s * sample_rate_hz)
+
+
 def grown_start_samples(
     period_samples: int | None, sample_rate_hz: float, min_s: float = GROWN_START_S
 ) -> int:
@@ -91,7 +111,7 @@ def run_settled(
     first_index: int,
     n: int,
     sample_rate_hz: float,
-    period_samples: int | None,
+    period_samples: float | None,
     settle_s: float = SETTLE_S,
     piece_s: float = PIECE_S,
     max_shifts: int = 2,
@@ -110,8 +130,9 @@ def run_settled(
         Window length, samples.
     sample_rate_hz : float
         Output rate.
-    period_samples : int or None
-        Hunting period in samples (:func:`whole_period_samples`); None: the window is never moved.
+    period_samples : float or None
+        Hunting period in samples (:func:`window_period_samples`: a whole number, or a fractional one,
+        whose moved window is read at the original instants by interpolation); None: never moved.
     settle_s, piece_s : float
         Settling margin before the window and length of the pieces, s.
     max_shifts : int
@@ -138,6 +159,7 @@ def run_settled(
     blocks: list[np.ndarray] = []
     start = first_index
     shifts = 0
+    frac = period_samples is not None and period_samples != round(period_samples)
 
     def advance_to(end: int) -> None:
         nonlocal pos
@@ -163,8 +185,16 @@ def run_settled(
             break
         need = last_change + margin - start
         m = max(1, math.ceil(need / period_samples))
-        start += m * period_samples
         shifts += m
+        start = first_index + (round(shifts * period_samples) if frac else shifts * int(period_samples))
+    # a fractional period: the moved window stands for the original one delta samples later
+    delta = round(shifts * period_samples) - shifts * period_samples if frac and shifts else 0.0
+    if delta:
+        advance_to(start + n + SINC_HALF_WIDTH + 1)  # the interpolation's neighbours after the window
     data = np.concatenate(blocks, axis=0) if len(blocks) > 1 else blocks[0]
     off = start - first_index
+    if delta:
+        lo = off - SINC_HALF_WIDTH - 1  # the moved window starts a whole period or more after data[0]
+        seg = delay_samples(data[lo : off + n + SINC_HALF_WIDTH + 1], delta)
+        return SettledRun(np.ascontiguousarray(seg[off - lo : off - lo + n]), start, shifts, settled)
     return SettledRun(np.ascontiguousarray(data[off : off + n]), start, shifts, settled)

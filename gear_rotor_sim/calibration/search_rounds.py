@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gear_rotor_sim.calibration.candidates_tooth_dte import confirmed_or_fallback
+from gear_rotor_sim.calibration.radial_static import moved_judged_mean
 from gear_rotor_sim.faults import BASELINE_TYPES, Effect, GearMisalignment
 
 if TYPE_CHECKING:
@@ -72,10 +73,14 @@ def baseline_no_rival(cal: Calibrator, fit: CandidateFit) -> bool:
     )
 
 
-def mean_moved_further(before: Score, after: Score) -> float | None:
+def mean_moved_further(before: Score, after: Score, judged: np.ndarray | None = None) -> float | None:
     """Largest channel-mean residual (sigma) of ``before`` if a mean more than 3 sigma off moves further
-    away in ``after``, else ``None``: a baseline scale must not do that (issue 11 item 3)."""
+    away in ``after``, else ``None``: a baseline scale must not do that (issue 11 item 3). ``judged`` (a
+    boolean mask over the static features) keeps the means a baseline scale can move
+    (``radial_static.baseline_judged_means``: not the radial bearing reactions, equilibrium loads)."""
     rb, ra = np.abs(before.static_r), np.abs(after.static_r)
+    if judged is not None and rb.size == ra.size == np.size(judged):
+        rb, ra = rb[judged], ra[judged]
     if rb.size and rb.size == ra.size and np.any((rb > 3.0) & (ra > rb)):
         return float(np.max(rb))
     return None
@@ -198,7 +203,7 @@ def examine_round(
         if isinstance(ver.effect, BASELINE_TYPES):
             # a baseline scale must not move a significantly wrong channel mean further away
             # (issue 11 item 3): a stiffer mesh cannot explain a DTE mean that grew
-            off = mean_moved_further(cur_score, ver.score)
+            off = moved_judged_mean(cal, cur_score, ver.score, ver.effect.label)
             if off is not None:
                 cal.notes.append(
                     f"{ver.effect.label}: baseline update not taken, it moves a channel mean "

@@ -8,10 +8,11 @@ one (issue 11: effects nobody declared; docs/calibration.md Sec. 2 "Speed check"
 * **agreement** (``|measured - declared| <= max(K_SIGMA sigma, tolerance)``): the measurement is
   returned unchanged (the same object): nothing else in the calibration changes;
 * **a correction** (beyond that, up to ``PLAUSIBLE`` of the declared speed: an induction motor's
-  slip, a tachometer's error, a sample clock off by a percent): the measurement is returned with the
-  measured speed, so that the model runs and every synchronous feature (orders, combs, synchronous
-  average, the non-synchronous envelope, the hunting-period window) use it; a line in the record's
-  ``issues`` names the declared and measured speeds, and the calibration reports an
+  slip, a tachometer's error, a sample clock off by a percent, which the mesh lines cannot tell from a
+  speed error and the issue names as the other reading, ``sample_clock.py``): the measurement is
+  returned with the measured speed, so that the model runs and every synchronous feature (orders,
+  combs, synchronous average, the non-synchronous envelope, the hunting-period window) use it; a line
+  in the record's ``issues`` names the declared and measured speeds, and the calibration reports an
   ``operating_speed`` entry in ``baseline_updates`` with the healthy model's error at the declared
   and at the measured speed (:func:`speed_entry`): an operating-point correction, never a fault;
 * **beyond** ``PLAUSIBLE``: a :class:`MeasurementError` naming ``operating_point.speed_rpm`` (a wrong
@@ -39,6 +40,7 @@ from typing import Any
 
 from gear_rotor_sim.calibration.measurement import Measurement, MeasurementError
 from gear_rotor_sim.calibration.order_tracking import SpeedVariation, check_speed_variation
+from gear_rotor_sim.calibration.sample_clock import clock_alternative
 from gear_rotor_sim.calibration.speed_estimate import (
     SpeedEstimate,
     estimate_speed,
@@ -153,7 +155,10 @@ def check_operating_speed(measurement: Measurement, cfg: Any) -> tuple[Measureme
             "slip or a tachometer's error; check operating_point.speed_rpm and the gearbox"
         )
     check.corrected = True
-    issue = check.describe() + "; the model and the synchronous features use the measured speed"
+    issue = (
+        f"{check.describe()}; the model and the synchronous features use the measured speed; "
+        + clock_alternative(declared, est.measured_rpm, measurement.sample_rate_hz)
+    )
     if abs(est.drift_z) > K_SIGMA and est.halves_rpm is not None:
         issue += (
             f"; the speed is not constant over the record (halves {est.halves_rpm[0]:.8g} and "

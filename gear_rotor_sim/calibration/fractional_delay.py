@@ -1,0 +1,68 @@
+"""A record delayed or advanced by a fraction of a sample: band-limited interpolation (issue 11).
+
+Two uses in the calibration: a channel the acquisition delayed by a few samples against the others is
+read back at its own instants (``channel_skew.py``), and a model window moved on by whole hunting periods
+that are not a whole number of samples is read at the instants of the window it stands for
+(``model_settle.py``).
+
+:func:`delay_samples` evaluates ``y[i] = x(i - d)`` by a Kaiser-windowed sinc of
+:data:`~gear_rotor_sim.calibration.order_tracking.SINC_HALF_WIDTH` samples each side (the same kernel as
+the order tracking's resampling, 80 dB): for a constant delay the weights are the same at every sample,
+so the delay is one short correlation. Lines up to about 0.45 of the sample rate keep their amplitude
+within 1e-3 and take the phase ``-2 pi f d / fs`` (``test/test_calibration_channel_skew.py``); the ends
+(the kernel's half-width) are read from the record mirrored about its first and last sample.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gear_rotor_sim.calibration.order_tracking import SINC_BETA, SINC_HALF_WIDTH
+
+
+def delay_weights(d: float) -> tuple[int, np.ndarray]:
+    """Offset and weights of ``x(i - d)``: ``sum_j w[j] x[i + k0 + j]`` over ``j = 0 .. 2 L - 1``.
+
+    Parameters
+    ----------
+    d : float
+        Delay, samples (negative: an advance).
+
+    Returns
+    -------
+    (int, numpy.ndarray)
+        ``k0`` (the first neighbour's offset from ``i``) and the ``2 L`` weights.
+    """
+    pos = -float(d)  # the instant i - d, relative to i
+    base = math.floor(pos)
+    frac = pos - base
+    L = SINC_HALF_WIDTH
+    j = np.arange(-L + 1, L + 1)
+    u = frac - j  # distance from the instant to each neighbour base + j
+    win = np.i0(SINC_BETA * np.sqrt(np.clip(1.0 - (u / L) ** 2, 0.0, None))) / np.i0(SINC_BETA)
+    return base - L + 1, np.sinc(u) * win
+
+
+def delay_samples(x: np.ndarray, d: float) -> np.ndarray:
+    """``x`` (samples along axis 0) delayed by ``d`` samples: ``y[i] = x(i - d)``.
+
+    A whole-number ``d`` moves the samples exactly (the ends repeat the mirrored record); a fractional one
+    interpolates (module docstring). Returns a new array of the same shape.
+    """
+    a = np.asarray(x, dtype=float)
+    one = a.ndim == 1
+    a2 = a[:, None] if one else a
+    n = a2.shape[0]
+    k0, w = delay_weights(d)
+    if abs(d - round(d)) < 1e-12:
+        k0, w = -round(d), np.ones(1)
+    pad_lo = max(0, -k0)
+    pad_hi = max(0, k0 + w.size - 1)
+    p = np.pad(a2, ((pad_lo, pad_hi), (0, 0)), mode="reflect" if n > max(pad_lo, pad_hi) else "edge")
+    out = np.zeros_like(a2)
+    for jj, wj in enumerate(w):
+        s = pad_lo + k0 + jj
+        out += wj * p[s : s + n]
+    return out[:, 0] if one else out
