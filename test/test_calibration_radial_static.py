@@ -94,7 +94,7 @@ def test_both_readings_of_a_wear_from_the_dte_mean():
     assert "'dte'" in text and "16.5 um" in text and "+23.1 um" in text
     assert "do not tell them apart" in text and "no wear and a zero offset" in text
     supported = wear_zero_issue(WearMeanReading(16.5e-6, 23.1e-6, 4.5e-6, 250.0, 1.0, "dte"))
-    assert "support the wear" in supported
+    assert "support a wear" in supported and "1.4 h + z = +23.1 um" in supported
     cal = SimpleNamespace(wear_mean_reading=reading)
     wear = SimpleNamespace(name="tooth_wear", parameters={"wear_depth_m": 16.6e-6, "mesh": 1})
     other = SimpleNamespace(name="tooth_wear", parameters={"wear_depth_m": 30e-6, "mesh": 1})

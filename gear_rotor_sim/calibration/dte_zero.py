@@ -75,14 +75,15 @@ def wear_zero_issue(reading: WearMeanReading) -> str:
     """The ``issues`` entry of a claimed wear read from the DTE mean: both readings of the mean."""
     um, column = 1e6, reading.column
     both = (
-        f"tooth wear of {um * reading.depth_m:.3g} um, or no wear and a zero offset of "
-        f"{um * reading.mean_excess_m:+.3g} um on {column!r}"
+        f"{MEAN_PER_DEPTH:g} h + z = {um * reading.mean_excess_m:+.3g} um for a wear h and a zero z: "
+        f"tooth wear of {um * reading.depth_m:.3g} um and no zero, or no wear and a zero offset of "
+        f"{um * reading.mean_excess_m:+.3g} um on {column!r}, or any split between"
     )
     if reading.dynamic_support:
         tail = (
-            f"the dynamic features alone support the wear (dBIC {reading.dynamic_dbic:.3g} without the "
-            "channel means; a zero changes no dynamics), so the wear reading is preferred, but its depth is "
-            "still the mean's"
+            f"the dynamic features alone support a wear (dBIC {reading.dynamic_dbic:.3g} without the "
+            "channel means; a zero changes no dynamics), so the wear is preferred, but how the mean splits "
+            "between wear and a zero is not read: the depth assumes no zero"
         )
     else:
         tail = (
