@@ -1,21 +1,18 @@
 """Periodic replay of a settled stream: ``Simulator(periodic_replay=True)`` (docs/solver.md, "Periodic
 replay at steady state").
 
-At a constant set point the forcing of Eq 39 (mesh stiffness, friction, static transmission error)
-is periodic in the input-shaft angle: every mesh's phase returns after a whole number of its mesh
-periods; an effect locked to a shaft's angle at a constant severity (a damaged tooth, an eccentric
-wheel, an unbalance, a shaft misalignment; simulator_replay_effects.py) repeats after whole
-revolutions of its shaft, so the forcing period holds those too. Once the solver's state at the end
-of an integrated chunk equals its state at the end of an earlier chunk a whole number of forcing
-periods before (each part of the state within ``REPLAY_TOLERANCE`` of its own norm, the contact
-states equal), every later step repeats the steps in between: their channel rows (what the kernel
-gave, before the decimation) are fed to the same decimator instead of integrating, until the set
-point, the effects or the dt rule's setting changes. The state at the current instant is then
-restored from the stored one (the stepper's modal state included) and integrated forward over the
-part of the period already served, so integration resumes exactly as it would from that state.
-Chaotic and quasi-periodic motion never matches and is integrated as without the option; until it
-engages the stream is bit for bit the one without it (the chunks are not changed: only the ends the
-caller and the dt rule make are compared).
+At a constant set point without effects the forcing of Eq 39 (mesh stiffness, friction, static
+transmission error) is periodic in the input-shaft angle: every mesh's phase returns after a whole
+number of its mesh periods. Once the solver's state at the end of an integrated chunk equals its state
+at the end of an earlier chunk a whole number of forcing periods before (each part of the state within
+``REPLAY_TOLERANCE`` of its own norm, the contact states equal), every later step repeats the steps in
+between: their channel rows (what the kernel gave, before the decimation) are fed to the same
+decimator instead of integrating, until the set point, the effects or the dt rule's setting changes.
+The state at the current instant is then restored from the stored one (the stepper's modal state
+included) and integrated forward over the part of the period already served, so integration resumes
+exactly as it would from that state. Chaotic and quasi-periodic motion never matches and is
+integrated as without the option; until it engages the stream is bit for bit the one without it (the
+chunks are not changed: only the ends the caller and the dt rule make are compared).
 
 :class:`PeriodicReplay` holds the history and the stored period; :class:`~gear_rotor_sim.simulator.
 Simulator` calls it from ``Stepping._run_steps`` (part of its bases, holding no state of its own).
@@ -26,8 +23,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-
-from gear_rotor_sim.simulator_replay_effects import periodic_effect_shafts
 
 if TYPE_CHECKING:
     from gear_rotor_sim.simulator import Simulator
@@ -49,13 +44,9 @@ _PHASE_TOL_CYCLES = 1e-9
 _STEPPER_ARRAYS = ("zr", "zi", "beta_prev", "beta_act", "ypred", "contact")
 
 
-def forcing_period_outputs(
-    system: AssembledSystem, speed_rpm: float, output_rate_hz: float, shafts: tuple[int, ...] = ()
-) -> int | None:
+def forcing_period_outputs(system: AssembledSystem, speed_rpm: float, output_rate_hz: float) -> int | None:
     """Smallest number of output samples after which every mesh's phase has advanced by whole mesh
-    cycles at a constant ``speed_rpm`` (the period of the healthy forcing on the output grid) and every
-    shaft of ``shafts`` by whole revolutions (the effects locked to those shafts' angles,
-    simulator_replay_effects.py).
+    cycles at a constant ``speed_rpm`` (the period of the healthy forcing on the output grid).
 
     Returns None without a mesh, at standstill, or when no such number up to
     ``REPLAY_MAX_FORCING_OUTPUTS`` exists (within ``_PHASE_TOL_CYCLES`` per period).
@@ -63,10 +54,7 @@ def forcing_period_outputs(
     if not system.meshes or not (speed_rpm > 0 and output_rate_hz > 0):
         return None
     ratios = np.asarray(system.shaft_speed_ratios, dtype=float)
-    cyc = np.array(
-        [m.pinion_teeth * abs(float(ratios[m.pinion_shaft])) for m in system.meshes]
-        + [abs(float(ratios[s])) for s in shafts]
-    )
+    cyc = np.array([m.pinion_teeth * abs(float(ratios[m.pinion_shaft])) for m in system.meshes])
     per_out = cyc * (speed_rpm / 60.0) / output_rate_hz  # mesh cycles per output sample
     g = np.arange(1, REPLAY_MAX_FORCING_OUTPUTS + 1, dtype=float)[:, None]
     x = g * per_out[None, :]
@@ -151,7 +139,7 @@ class PeriodicReplay:
         self.n_engaged = 0
         #: False: never serve (the angles stay periodic): the integrated reference of the replay
         self.serving = True
-        self._period_at: tuple = (None,) * 5  # (system, speed, rate, effect shafts, forcing period)
+        self._period_at: tuple = (None, None, None, None)  # (system, speed, rate, forcing period)
         self._reset()
 
     def _reset(self) -> None:
@@ -172,29 +160,21 @@ class PeriodicReplay:
     def key_of(self, sim: Simulator) -> tuple | None:
         """What must stay the same for the stream to repeat (None: not eligible now).
 
-        Eligible: speed and temperature at their targets (no ramp running), only effects locked to
-        shaft angles at a constant severity (:func:`periodic_effect_shafts`: a damaged tooth, an
-        eccentric wheel, a mass unbalance, a shaft misalignment, past their onset and growth; not the
-        streamed gear misalignment), a forcing period on the output grid (whole mesh cycles and whole
-        revolutions of those effects' shafts). The key holds the forcing period, the dt rule's setting
-        (decimation factor, events located, exact map), the quantised speed, the segment of the raw
-        grid and the effects' shafts.
+        Eligible: no effects (their forces may follow a time law), speed and temperature at their
+        targets (no ramp running), a forcing period on the output grid. The key holds the dt rule's
+        setting (decimation factor, events located, exact map), the quantised speed and the segment
+        of the raw grid.
         """
-        if sim._mis.active:
+        if sim._run_effects or sim._mis.active:
             return None
         t = sim._raw_time
         if float(sim._speed.value(t)) != sim._speed.target or float(sim._temp.value(t)) != sim._temp.target:
             return None
         system = sim._stepper.system
-        shafts: tuple[int, ...] | None = ()
-        if sim._run_effects:  # the chunk's effect inputs start one step before its first new step
-            shafts = periodic_effect_shafts(sim._run_effects, system, t - sim.dt)
-            if shafts is None:
-                return None
-        at = (system, sim._speed.target, sim.output_rate_hz, shafts)
-        if self._period_at[0] is not system or self._period_at[1:4] != at[1:]:
+        at = (system, sim._speed.target, sim.output_rate_hz)
+        if self._period_at[0] is not system or self._period_at[1:3] != at[1:]:
             self._period_at = (*at, forcing_period_outputs(*at))
-        g = self._period_at[4]
+        g = self._period_at[3]
         if g is None:
             return None
         return (
@@ -208,7 +188,6 @@ class PeriodicReplay:
             sim._sys_key,
             sim._speed.target,
             sim._temp.target,
-            shafts,
         )
 
     # ------------------------------------------------------------------------------ integration

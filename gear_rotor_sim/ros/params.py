@@ -257,10 +257,9 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "periodic_replay",
         True,
-        "At a constant set point (faults locked to a shaft's angle at a constant severity included), once "
-        "the state repeats after a whole number of forcing periods (to 1e-10), stream the stored period "
-        "instead of integrating until a set point or the faults change (Simulator(periodic_replay=True), "
-        "docs/solver.md, Periodic replay at steady state).",
+        "At a constant set point without faults, once the state repeats after a whole number of forcing "
+        "periods (to 1e-10), stream the stored period instead of integrating until a set point or the "
+        "faults change (Simulator(periodic_replay=True), docs/solver.md, Periodic replay at steady state).",
     ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
