@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from gear_rotor_sim.calibration.order_tracking import SINC_BETA, SINC_HALF_WIDTH
+from gear_rotor_sim.calibration.order_tracking import SINC_HALF_WIDTH, sinc_weights
 
 
 def delay_weights(d: float) -> tuple[int, np.ndarray]:
@@ -44,8 +44,7 @@ def delay_weights(d: float) -> tuple[int, np.ndarray]:
     L = SINC_HALF_WIDTH
     j = np.arange(-L + 1, L + 1)
     u = frac - j  # distance from the instant to each neighbour base + j
-    win = np.i0(SINC_BETA * np.sqrt(np.clip(1.0 - (u / L) ** 2, 0.0, None))) / np.i0(SINC_BETA)
-    return base - L + 1, np.sinc(u) * win
+    return base - L + 1, sinc_weights(u)
 
 
 def delay_samples(x: np.ndarray, d: float) -> np.ndarray:

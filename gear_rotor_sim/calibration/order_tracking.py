@@ -186,6 +186,14 @@ def angle_tolerance_rad(cfg: Any) -> float:
     return math.sqrt(2.0 * FEATURE_LOSS) / k_max if k_max > 0 else math.inf
 
 
+def sinc_weights(u: np.ndarray) -> np.ndarray:
+    """Kaiser-windowed sinc weights at distances ``u`` (samples, ``|u| <= SINC_HALF_WIDTH``) from the
+    neighbours: the interpolation kernel of :func:`resample_to_angle` and ``fractional_delay.py``."""
+    L = SINC_HALF_WIDTH
+    win = np.i0(SINC_BETA * np.sqrt(np.clip(1.0 - (u / L) ** 2, 0.0, None))) / np.i0(SINC_BETA)
+    return np.sinc(u) * win
+
+
 def resample_to_angle(data: np.ndarray, angle_rad: np.ndarray, grid: np.ndarray | None = None) -> np.ndarray:
     """Each column of ``data`` at the instants where ``angle_rad`` (monotonic, one value per sample)
     crosses ``grid`` (default: uniform from its first to its last value, ``data.shape[0]`` points):
@@ -203,8 +211,7 @@ def resample_to_angle(data: np.ndarray, angle_rad: np.ndarray, grid: np.ndarray 
     i0 = np.floor(tk).astype(int)
     j = np.arange(-L + 1, L + 1)
     u = tk[:, None] - (i0[:, None] + j[None, :])  # distance to each neighbour, samples
-    win = np.i0(SINC_BETA * np.sqrt(np.clip(1.0 - (u / L) ** 2, 0.0, None))) / np.i0(SINC_BETA)
-    wts = np.sinc(u) * win
+    wts = sinc_weights(u)
     idx = i0[:, None] + j[None, :] + L + 1
     out = np.empty_like(x)
     for c in range(x.shape[1]):
