@@ -138,6 +138,10 @@ def test_an_accelerometer_offset_is_reported_and_a_zero_mean_vibration_is_not():
     assert issues[1].startswith("column 'bearing2_fy'") and "maximum" in issues[1]
 
 
+#: relative tolerance of two calibrations of the same record (round-off through a fit)
+FIT_REL = 1e-6
+
+
 def test_a_reversed_accelerometer_is_read_back_and_diagnosed_as_declared(
     shared_records, pinion_tooth_calibration
 ):
@@ -157,11 +161,11 @@ def test_a_reversed_accelerometer_is_read_back_and_diagnosed_as_declared(
     for a, b in zip(res.effects, ref.effects, strict=True):
         assert a.parameters.keys() == b.parameters.keys()
         for key, val in b.parameters.items():
-            want = pytest.approx(val, rel=1e-9) if isinstance(val, float) else val
+            want = pytest.approx(val, rel=FIT_REL) if isinstance(val, float) else val
             assert a.parameters[key] == want, key
-    # to 1e-8 of their size: in the calibration suite (session 21) error_after differed by 1.7e-9 relative
-    # after the session's other calibrations, matched at 1e-9 alone (not traced; b8d7756 found round-off of
-    # this size between a model run from the runner's cache and one recomputed in the process)
-    assert res.error_before == pytest.approx(ref.error_before, rel=1e-8)
-    assert res.error_after == pytest.approx(ref.error_after, rel=1e-8)
+    # round-off between a model run from the runner's cache and one recomputed in the process (~1e-10)
+    # is amplified by a fit's conditioning (1.7e-9 on error_after here, 1e-7 on a candidate's phase in
+    # test_calibration_residual_trace); a sign read wrong changes these by order one
+    assert res.error_before == pytest.approx(ref.error_before, rel=FIT_REL)
+    assert res.error_after == pytest.approx(ref.error_after, rel=FIT_REL)
     assert res.notes == ref.notes
