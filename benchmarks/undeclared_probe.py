@@ -2,7 +2,7 @@
 
 Each factory returns a function ``post(record, fs)`` that changes a noisy ``lumped_gearbox`` record in place,
 after the generator (which is not changed); ``benchmarks/calibration_undeclared.py`` applies it
-(:func:`calibration_undeclared.probe_cases`). What a real chain does without saying so:
+(:func:`calibration_undeclared_cases.probe_cases`). What a real chain does without saying so:
 
 - a sample clock off by ``eps``: the record is generated at ``fs (1 + eps)`` and its time column written at
   the declared ``fs`` (:data:`CLOCK_RATE_HZ`), so every frequency in the file, the machine's fixed resonances
@@ -15,7 +15,7 @@ after the generator (which is not changed); ``benchmarks/calibration_undeclared.
 - coarse quantisation: ``bits`` over a symmetric range ``range_factor`` x the channel's peak about zero;
 - a slow baseline wander: band-limited random noise below the slowest shaft's rate on every channel;
 - cross-talk: a fraction of one channel (its mean too: DC-coupled) summed into another;
-- a channel skew: :func:`calibration_undeclared.delay`.
+- a channel skew: :func:`calibration_undeclared_cases.delay`.
 
 Every random draw comes from its own seeded generator, so a record is the same whichever cases are run.
 """
