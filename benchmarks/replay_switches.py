@@ -9,7 +9,8 @@ compares the node (``periodic_replay`` on, faults given as ``timed_effects``, 0.
 that bound in seconds, without ROS.
 
 ``switches``: a plan of fault lists, each held for a number of 0.1 s chunks (``NAME:CHUNKS,...``, names
-from :data:`FAULTS`, ``healthy`` for none); prints per chunk the largest difference over the channels
+from :data:`FAULTS`, ``healthy`` for none; ``--node-sequence N``: the node test's order, N chunks each);
+prints per chunk the largest difference over the channels
 (of each channel's peak over the run), whether the replay serves, and how often it engaged.
 
 ``jump``: where two plain integrations whose start angles differ by ``--perturb`` rad (round-off)
@@ -19,7 +20,8 @@ mesh phase 0 (a table jump) exactly on a step instant every 29 mesh periods, and
 decides on which side of the jump that step lies.
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/replay_switches.py switches
-[--plan mass_unbalance:9,shaft_misalignment:9] [--rpm 3000] [--plain-angles]``; ``... jump
+[--plan mass_unbalance:9,shaft_misalignment:9] [--rpm 3000] [--faults] [--node-sequence N] [--plain-angles]``;
+``... jump
 [--fault gear_eccentricity]``.
 """
 
@@ -41,7 +43,25 @@ FAULTS: dict[str, list[dict[str, Any]]] = {
     "mass_unbalance": [{"type": "mass_unbalance", "node": 5, "unbalance_kg_m": 2.0e-4}],
     "shaft_misalignment": [{"type": "shaft_misalignment", "node": 1, "offset_m": 1.0e-4}],
     "outer_race_defect": [{"type": "outer_race_defect", "bearing": 2, "force_n": 800.0}],
+    "tooth_wear": [{"type": "tooth_wear", "wear_depth_m": 1.0e-5}],
+    "inner_race_defect": [{"type": "inner_race_defect", "bearing": 3, "force_n": 800.0}],
+    "ball_defect": [{"type": "ball_defect", "bearing": 1, "force_n": 800.0}],
+    "gear_misalignment": [
+        {"type": "gear_misalignment", "member": "pinion", "angle_rad": 1.0e-3, "phase_rad": 0.3}
+    ],
+    "mesh_stiffness_damping": [
+        {"type": "mesh_stiffness_damping", "stiffness_scale": 1.3, "damping_scale": 0.7}
+    ],
+    "bearing_stiffness_damping": [
+        {"type": "bearing_stiffness_damping", "stiffness_scale": 0.6, "damping_scale": 1.5}
+    ],
 }
+#: The order of test_faults_node.py's requests (its first fault, the gear tooth, then one of each type).
+NODE_SEQUENCE = [
+    "gear_tooth", "pinion_eccentricity", "mass_unbalance", "tooth_wear", "outer_race_defect",
+    "gear_eccentricity", "shaft_misalignment", "inner_race_defect", "ball_defect", "gear_misalignment",
+    "mesh_stiffness_damping", "bearing_stiffness_damping",
+]  # fmt: skip
 #: The node's channels of /gear_rotor/dte and two bearings of /gear_rotor/bearing_forces.
 CHANNELS = ["dte", "mesh_force", "bearing1_fx", "bearing1_fy", "bearing2_fx", "bearing2_fy"]
 CHUNK_S = 0.1
@@ -65,8 +85,9 @@ def node_like_run(
     plan: Sequence[tuple[Sequence[dict[str, Any]], int]],
     rpm: float = 3000.0,
     channels: Sequence[str] = CHANNELS,
-    replay: bool = True,
+    replay: bool | str = True,
     model: str = "paper_sun2021",
+    same_reference: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, list[tuple[float, bool, int]]]:
     """The node's stream and the plain integration's through ``plan``.
 
@@ -79,15 +100,18 @@ def node_like_run(
         Constant input speed.
     channels : sequence of str
         Output channels (20 kHz).
-    replay : bool
-        The node-like ``Simulator``'s ``periodic_replay``.
+    replay : bool or str
+        The node-like ``Simulator``'s ``periodic_replay`` (``"faults"``: faults replayed too).
     model : str
         Config name.
+    same_reference : bool
+        The reference is the same option's integration (serving off: the same periodic angles, given
+        the same ``timed_effects``) instead of the plain ``Simulator`` with the library effects.
 
     Returns
     -------
     node, plain : ndarray
-        The two streams, samples x channels.
+        The two streams (the node's and the reference's), samples x channels.
     info : list of (float, bool, int)
         Per chunk: the end time, whether the replay served at its end, how often it engaged so far.
     """
@@ -101,14 +125,20 @@ def node_like_run(
     first = plan[0][0]
     timed = timed_effects(parse_faults(list(first)))
     node = Simulator(cfg, rpm, 25.0, 20000.0, periodic_replay=replay, effects=timed, **kw)
-    plain = Simulator(cfg, rpm, 25.0, 20000.0, effects=library_effects(first), **kw)
+    if same_reference:
+        plain = Simulator(cfg, rpm, 25.0, 20000.0, periodic_replay=replay, effects=timed, **kw)
+        assert plain.replay is not None
+        plain.replay.serving = False
+    else:
+        plain = Simulator(cfg, rpm, 25.0, 20000.0, effects=library_effects(first), **kw)
     a: list[np.ndarray] = []
     b: list[np.ndarray] = []
     info: list[tuple[float, bool, int]] = []
     for i, (specs, chunks) in enumerate(plan):
         if i:
             node.set_effects(timed_effects(parse_faults(list(specs))))
-            plain.set_effects(library_effects(specs))
+            ref = timed_effects(parse_faults(list(specs))) if same_reference else library_effects(specs)
+            plain.set_effects(ref)
         for _ in range(chunks):
             a.append(node.advance_deferred(CHUNK_S).result().data)
             b.append(plain.advance(CHUNK_S).data)
@@ -134,9 +164,15 @@ def _parse_plan(text: str) -> list[tuple[list[dict[str, Any]], int]]:
     return out
 
 
-def switches(plan_text: str, rpm: float, plain_angles: bool) -> np.ndarray:
+def node_sequence_plan(hold: int) -> str:
+    """The plan text of :data:`NODE_SEQUENCE`, each fault held ``hold`` chunks."""
+    return ",".join(f"{name}:{hold}" for name in NODE_SEQUENCE)
+
+
+def switches(plan_text: str, rpm: float, plain_angles: bool, mode: bool | str = True) -> np.ndarray:
     """Print and return the per-chunk errors of :func:`node_like_run` (``plain_angles``: the replay's
-    angles replaced by the plain integration's, a diagnosis of the option's arithmetic)."""
+    angles replaced by the plain integration's also without faults, a diagnosis of the option's
+    arithmetic; ``mode``: ``periodic_replay``)."""
     import gear_rotor_sim.simulator_replay as sr
 
     plan = _parse_plan(plan_text)
@@ -145,7 +181,7 @@ def switches(plan_text: str, rpm: float, plain_angles: bool) -> np.ndarray:
     if plain_angles:
         sr.PeriodicReplay.begin = lambda self, sim, key, angle: (orig(self, sim, key, angle), angle)[1]
     try:
-        x, y, info = node_like_run(plan, rpm)
+        x, y, info = node_like_run(plan, rpm, replay=mode)
     finally:
         sr.PeriodicReplay.begin = orig
     err = chunk_errors(x, y, int(CHUNK_S * 20000))
@@ -209,6 +245,10 @@ def main() -> int:
     s.add_argument("--plan", default="mass_unbalance:9,shaft_misalignment:9,healthy:9,gear_eccentricity:4")
     s.add_argument("--rpm", type=float, default=3000.0)
     s.add_argument("--plain-angles", action="store_true", help="the replay with the plain angles")
+    s.add_argument("--faults", action="store_true", help='periodic_replay="faults" (faults replayed)')
+    s.add_argument(
+        "--node-sequence", type=int, default=0, help="test_faults_node's order, held N chunks each"
+    )
     j = sub.add_parser("jump")
     j.add_argument("--rpm", type=float, default=3000.0)
     j.add_argument("--fault", default="gear_eccentricity", choices=sorted(FAULTS))
@@ -216,7 +256,8 @@ def main() -> int:
     j.add_argument("--chunks", type=int, default=6)
     args = ap.parse_args()
     if args.cmd == "switches":
-        switches(args.plan, args.rpm, args.plain_angles)
+        plan = node_sequence_plan(args.node_sequence) if args.node_sequence else args.plan
+        switches(plan, args.rpm, args.plain_angles, "faults" if args.faults else True)
     else:
         jump(args.rpm, args.fault, args.perturb, args.chunks)
     return 0
