@@ -34,21 +34,18 @@ def _pair(text: str | None) -> tuple[float, float] | None:
     return a, b
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("record", type=Path)
-    ap.add_argument("--bearing", default=None, help="bearing set held: stiffness,damping scales")
-    ap.add_argument("--mesh", default=None, help="mesh set held: stiffness,damping scales")
-    ap.add_argument("--depths-um", type=float, nargs="+", default=[0.0, 6.0, 12.0, 18.0, 24.0, 32.0, 40.0])
-    args = ap.parse_args(argv)
-    m = load_measurement(args.record)
-    cal = Calibrator(m)
+def held_calibrator(record: Path, bearing: str | None, mesh: str | None) -> tuple[Calibrator, object]:
+    """The record's calibrator at the healthy model with the baseline sets ``bearing`` / ``mesh``
+    (``"S_K,S_C"`` or None) held, its transfer slopes fitted on that model and held, and the carriers'
+    tolerance after a baseline update (no set held: the settings' tolerance, the nominal model's as in
+    round 0); returns it and that model's features."""
+    cal = Calibrator(load_measurement(record))
     cal._feat_correction = None
     cal._setup()
     held = []
-    if (p := _pair(args.mesh)) is not None:
+    if (p := _pair(mesh)) is not None:
         held.append(MeshStiffnessDamping(stiffness_scale=p[0], damping_scale=p[1]))
-    if (p := _pair(args.bearing)) is not None:
+    if (p := _pair(bearing)) is not None:
         held.append(BearingStiffnessDamping(stiffness_scale=p[0], damping_scale=p[1]))
     cal.baseline = held
     cal.base_raw = cal._raw(())
@@ -57,7 +54,17 @@ def main(argv: list[str] | None = None) -> int:
     if held:
         # the carriers' model-form tolerance after a baseline update, as in the calibration's rounds
         cal.cmp.set_carrier_tolerance(cal._carrier_floor(base, cal.cmp.score(base)))
-    # no set held: the carriers keep the settings' tolerance (the nominal model's, as in round 0)
+    return cal, base
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("record", type=Path)
+    ap.add_argument("--bearing", default=None, help="bearing set held: stiffness,damping scales")
+    ap.add_argument("--mesh", default=None, help="mesh set held: stiffness,damping scales")
+    ap.add_argument("--depths-um", type=float, nargs="+", default=[0.0, 6.0, 12.0, 18.0, 24.0, 32.0, 40.0])
+    args = ap.parse_args(argv)
+    cal, base = held_calibrator(args.record, args.bearing, args.mesh)
     tol = getattr(cal.cmp, "carrier_tolerance", cal.settings.tolerance)
     print(f"carrier tolerance {tol:.3g}", flush=True)
     c = dte_channel(list(cal.cmp.names), 1, 1)
