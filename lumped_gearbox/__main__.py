@@ -8,7 +8,9 @@ import time
 
 from lumped_gearbox.faults import FAULT_NAMES, parse_fault
 from lumped_gearbox.load_profile import LoadProfile
+from lumped_gearbox.pitch import PitchErrors
 from lumped_gearbox.record import make_record, write_record
+from lumped_gearbox.sensors import parse_sensor
 from lumped_gearbox.speed_profile import SpeedProfile
 
 
@@ -80,6 +82,28 @@ def main(argv: list[str] | None = None) -> int:
         help="load_profile.gear_order: locked to the gear's angle at this order of the gear shaft (0 .. 10; "
         "instead of --load-fluctuation-hz)",
     )
+    rec.add_argument(
+        "--pitch-fpt-um",
+        type=float,
+        default=0.0,
+        help="pitch_errors.f_pt_um: RMS single pitch deviation of every tooth of both wheels, um "
+        "(0 .. 30; default 0: exact teeth)",
+    )
+    rec.add_argument(
+        "--pitch-runout-um",
+        type=float,
+        default=0.0,
+        help="pitch_errors.runout_um: once-per-turn part of the cumulative pitch deviation, um (0 .. 50)",
+    )
+    rec.add_argument("--pitch-seed", type=int, default=0, help="pitch_errors.seed: seed of the flank draw")
+    rec.add_argument(
+        "--sensor",
+        action="append",
+        default=[],
+        metavar="COLUMN:KIND:HZ[:ORDER]",
+        help="a sensor's own filter on one column (repeatable): highpass (AC coupling, order 1) or lowpass "
+        "(order 2), -3 dB at HZ; e.g. bearing2_fx:highpass:0.5, node5_ax:lowpass:3000",
+    )
     rec.add_argument("--out", required=True, help="output CSV path")
     args = parser.parse_args(argv)
     try:
@@ -94,6 +118,13 @@ def main(argv: list[str] | None = None) -> int:
             load = LoadProfile(
                 args.load_fluctuation_pct, args.load_fluctuation_hz, args.load_fluctuation_gear_order
             )
+        pitch = None
+        if args.pitch_fpt_um or args.pitch_runout_um:
+            pitch = PitchErrors(args.pitch_fpt_um, args.pitch_runout_um, args.pitch_seed)
+        sensors: dict[str, list] = {}
+        for text in args.sensor:
+            col, filt = parse_sensor(text)
+            sensors.setdefault(col, []).append(filt)
         t0 = time.perf_counter()
         r = make_record(
             args.speed_rpm,
@@ -106,6 +137,8 @@ def main(argv: list[str] | None = None) -> int:
             sampling=args.sampling,
             speed_profile=profile,
             load_profile=load,
+            pitch_errors=pitch,
+            sensors=sensors,
         )
         path = write_record(args.out, r)
     except (ValueError, RuntimeError) as exc:

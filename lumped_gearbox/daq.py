@@ -24,11 +24,13 @@ substeps, every 8th state stored, no low-pass) so that the tables of sessions 1-
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy import signal
 
 from lumped_gearbox.housing import housing_acceleration
+from lumped_gearbox.sensors import SensorFilter, apply_chain
 from lumped_gearbox.simulate import CHANNELS, Setup, channels, integrate_from_rest
 
 #: RK4 steps per output sample of the data-acquisition chain (chosen by convergence, module docstring)
@@ -82,12 +84,15 @@ def acquire(
     substeps: int = DAQ_SUBSTEPS,
     preroll_s: float = 0.3,
     housing: bool = False,
+    sensors: Mapping[str, Sequence[SensorFilter]] | None = None,
 ) -> dict[str, np.ndarray]:
     """Integrate at ``substeps`` per sample, low-pass every channel, sample at ``sample_rate_hz``.
 
     Returns the same keys as :func:`simulate.run` (plus the housing channels with ``housing``): the
     six channels low-passed and sampled; ``mesh_force``, ``mesh_stiffness``, ``q``, ``v``, ``a`` are
-    the model's state at the sample instants (diagnostics, not measured channels).
+    the model's state at the sample instants (diagnostics, not measured channels). ``sensors``: column ->
+    a sensor's own filters (``sensors.py``), applied to that column's fine signal before the low-pass
+    (the housing path is driven by the true force).
     """
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise ValueError(f"duration_s: {duration_s!r} must be positive")
@@ -112,6 +117,8 @@ def acquire(
             # the fine force is already 32x oversampled: the housing is stepped on it directly
             fine[c] = housing_acceleration(fine[f"bearing2_f{c[-1]}"], fs_fine, oversample=1)
         names += list(HOUSING_CHANNELS)
+    for c, chain in (sensors or {}).items():
+        fine[c] = apply_chain(fine[c], fs_fine, chain)
     keep = half + substeps * np.arange(n_out)  # fine index of each sample instant
     res: dict[str, np.ndarray] = {"time_s": np.arange(n_out) / sample_rate_hz}
     for c in names:

@@ -16,6 +16,8 @@ the bearings' dampers act on the wheel's lateral/axial motion.
     m2 z2''  = -k_z z2 - c_z z2' + F_m g(t)
     J2 q2''  = T2(t) - F_m rb2                                    (T2 constant unless load_profile.py)
 
+With manufacturing pitch errors (``pitch.py``) each pair in contact takes its own deadzone at its flanks'
+position error ``e_n``: ``F_m = sum_n k_n [delta_m + e_n + g xi_j - b]_+ - ...``.
 ``u = z1 w1 t / 2 pi`` is the mesh position in cycles, ``b`` the thermal half backlash, ``g(t)`` the
 misalignment wobble angle, ``f_c`` the fraction of face slices in contact. With a speed profile
 (``speed_profile.py``) the input end turns by ``psi(t)`` instead of ``w1 t``: ``u = z1 psi / 2 pi``, the
@@ -35,6 +37,7 @@ from numba import njit
 
 from lumped_gearbox.loose_housing import loose_relief
 from lumped_gearbox.mesh import pair_shape
+from lumped_gearbox.pitch import pitch_mesh_force
 from lumped_gearbox.shaft_faults import cardan_lag, crack_force
 
 # indices of the parameter vectors (grouped by role)
@@ -126,8 +129,9 @@ def _profile(t, prof):
 
 
 @njit(cache=True)
-def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
-    """Accelerations ``a`` (in place); returns (mesh force, mesh stiffness)."""
+def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof, pitch):
+    """Accelerations ``a`` (in place); returns (mesh force, mesh stiffness). ``pitch``: the flank errors
+    of pitch.py (empty: none, the single deadzone below)."""
     sa = geo[G_SA]
     ca = geo[G_CA]
     rb1 = geo[G_RB1]
@@ -159,6 +163,22 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
     if fault[F_MIS] > 0.0:
         psi = (psi2 if fault[F_MIS_GEAR] > 0.5 else psi1) + fault[F_MIS_PH]
         gam = fault[F_MIS] * math.cos(psi)
+    if pitch.size > 0:  # every pair at its own flank position (pitch.py)
+        fel, fc = pitch_mesh_force(
+            u,
+            dm,
+            b,
+            gam,
+            geo[G_FACE],
+            N_SLICES,
+            geo[G_EPS],
+            geo[G_RELIEF],
+            kk[K_PAIR],
+            tooth_p,
+            tooth_g,
+            pitch,
+        )
+    elif fault[F_MIS] > 0.0:
         fel = 0.0
         fc = 0.0
         for j in range(N_SLICES):
@@ -230,10 +250,13 @@ def _rhs(t, q, v, a, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof):
 
 
 @njit(cache=True)
-def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, n_skip, prof):
+def integrate(
+    t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, n_skip, prof, pitch
+):
     """Classical RK4 with step ``dt`` from ``t0``; every ``n_sub``-th step after ``n_skip`` output
     samples' worth of steps is stored: q, v, a (8 each), mesh force, mesh stiffness. ``prof``: the
-    input speed profile (speed_profile.py; zeros: constant speed)."""
+    input speed profile (speed_profile.py; zeros: constant speed); ``pitch``: flank errors (pitch.py; empty:
+    none)."""
     out = np.empty((n_out, N_OUT))
     q = q0.copy()
     v = v0.copy()
@@ -247,7 +270,7 @@ def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, toot
     h = dt
     for step in range(total):
         t = t0 + step * h
-        fm, km = _rhs(t, q, v, a1, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
+        fm, km = _rhs(t, q, v, a1, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof, pitch)
         if step % n_sub == 0 and step >= n_skip * n_sub:
             i = step // n_sub - n_skip
             out[i, 0:8] = q
@@ -258,15 +281,15 @@ def integrate(t0, dt, n_sub, n_out, q0, v0, geo, mass, kk, cc, load, fault, toot
         for j in range(8):
             qt[j] = q[j] + 0.5 * h * v[j]
             vt[j] = v[j] + 0.5 * h * a1[j]
-        _rhs(t + 0.5 * h, qt, vt, a2, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
+        _rhs(t + 0.5 * h, qt, vt, a2, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof, pitch)
         for j in range(8):
             qt[j] = q[j] + 0.5 * h * (v[j] + 0.5 * h * a1[j])
             vt[j] = v[j] + 0.5 * h * a2[j]
-        _rhs(t + 0.5 * h, qt, vt, a3, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
+        _rhs(t + 0.5 * h, qt, vt, a3, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof, pitch)
         for j in range(8):
             qt[j] = q[j] + h * (v[j] + 0.5 * h * a2[j])
             vt[j] = v[j] + h * a3[j]
-        _rhs(t + h, qt, vt, a4, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof)
+        _rhs(t + h, qt, vt, a4, geo, mass, kk, cc, load, fault, tooth_p, tooth_g, prof, pitch)
         for j in range(8):
             q[j] += h * (v[j] + h / 6.0 * (a1[j] + a2[j] + a3[j]))
             v[j] += h / 6.0 * (a1[j] + 2.0 * a2[j] + 2.0 * a3[j] + a4[j])

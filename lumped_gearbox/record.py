@@ -9,7 +9,7 @@ were injected, the actual temperature, noise levels and gains).
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,6 +23,8 @@ from lumped_gearbox.housing import housing_acceleration
 from lumped_gearbox.load_profile import LoadProfile
 from lumped_gearbox.model import L_TA
 from lumped_gearbox.params import Gearbox
+from lumped_gearbox.pitch import PitchErrors
+from lumped_gearbox.sensors import SensorFilter, apply_chain, sensor_chains
 from lumped_gearbox.simulate import CHANNELS, build, run
 from lumped_gearbox.speed_profile import SpeedProfile
 
@@ -69,6 +71,12 @@ class Record:
     speed_profile: SpeedProfile | None = None
     #: the output torque's fluctuation about its mean (load_profile.py); None: constant
     load_profile: LoadProfile | None = None
+    #: manufacturing pitch errors of the wheels (pitch.py); None: exact teeth
+    pitch_errors: PitchErrors | None = None
+    #: the sensors' own filters per column (sensors.py); empty: flat sensors
+    sensors: dict[str, tuple[SensorFilter, ...]] = field(default_factory=dict)
+    #: the wheels' tooth counts (for the pitch errors' truth)
+    teeth: tuple[int, int] = (29, 49)
 
     def truth(self) -> dict[str, Any]:
         out = {
@@ -88,6 +96,10 @@ class Record:
             out["speed_profile"] = self.speed_profile.truth()
         if self.load_profile is not None:
             out["load_profile"] = self.load_profile.truth()
+        if self.pitch_errors is not None:
+            out["pitch_errors"] = self.pitch_errors.truth(*self.teeth)
+        if self.sensors:
+            out["sensors"] = {c: [f.truth() for f in chain] for c, chain in self.sensors.items()}
         return out
 
 
@@ -106,6 +118,8 @@ def make_record(
     substeps: int | None = None,
     speed_profile: SpeedProfile | dict[str, float] | None = None,
     load_profile: LoadProfile | dict[str, float] | None = None,
+    pitch_errors: PitchErrors | dict[str, Any] | None = None,
+    sensors: Mapping[str, SensorFilter | Sequence[SensorFilter]] | None = None,
 ) -> Record:
     """Simulate the lumped gearbox and add sensor noise and gain errors.
 
@@ -147,6 +161,15 @@ def make_record(
         ``frequency_hz`` (0 .. 200) or locked to the gear at ``gear_order`` (0 .. 10), ``phase_rad``. The
         truth file holds the profile. None (default): the constant torque of every earlier record (bit
         for bit).
+    pitch_errors : PitchErrors or dict, optional
+        Manufacturing pitch errors on every tooth (:mod:`lumped_gearbox.pitch`): ``f_pt_um`` (RMS single
+        pitch deviation, 0 .. 30 um), ``runout_um`` (once-per-turn part, 0 .. 50 um), ``seed``, ``wheels``.
+        The truth file holds the drawn flank positions. None (default) or all-zero errors: exact teeth, the
+        records of every earlier table bit for bit.
+    sensors : mapping, optional
+        Column -> a sensor's own filter or filters (:mod:`lumped_gearbox.sensors`: an AC-coupled force
+        sensor's high-pass, an accelerometer's low-pass), applied before the anti-aliasing low-pass (``daq``)
+        or on the samples (``point``). The sidecar does not say it; the truth file does.
 
     Raises
     ------
@@ -172,14 +195,22 @@ def make_record(
         load_profile = LoadProfile(**load_profile)
     if load_profile is not None:
         setup.load[L_TA:] = load_profile.vector()
+    if isinstance(pitch_errors, dict):
+        pitch_errors = PitchErrors(**pitch_errors)
+    if pitch_errors is not None:
+        e = pitch_errors.vector(gb.z1, gb.z2, gb.pressure_angle_rad)
+        setup.pitch = e if np.any(e != 0.0) else setup.pitch
     channels = CHANNELS + HOUSING_CHANNELS if housing else CHANNELS
+    chains = sensor_chains(sensors, channels)
     if sampling == "daq":
-        clean = acquire(setup, duration_s, sample_rate_hz, substeps, housing=housing)
+        clean = acquire(setup, duration_s, sample_rate_hz, substeps, housing=housing, sensors=chains)
     else:
         clean = run(setup, duration_s, sample_rate_hz, substeps)
         if housing:
             for c in HOUSING_CHANNELS:
                 clean[c] = housing_acceleration(clean[f"bearing2_f{c[-1]}"], sample_rate_hz)
+        for c, chain in chains.items():
+            clean[c] = apply_chain(clean[c], sample_rate_hz, chain)
     rng = np.random.default_rng(seed)
     data: dict[str, np.ndarray] = {}
     nf: dict[str, float] = {}
@@ -213,6 +244,9 @@ def make_record(
         substeps,
         speed_profile,
         load_profile,
+        pitch_errors,
+        chains,
+        (gb.z1, gb.z2),
     )
 
 

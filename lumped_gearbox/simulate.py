@@ -54,6 +54,8 @@ class Setup:
     bearing_defects: tuple[BearingDefect, ...] = ()
     #: input speed profile vector (``speed_profile.SpeedProfile.vector``); zeros: constant speed
     profile: np.ndarray = field(default_factory=lambda: np.zeros(N_PROFILE))
+    #: flank position errors of every tooth (``pitch.PitchErrors.vector``); empty: none
+    pitch: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def static_state(self) -> np.ndarray:
         """Static equilibrium at the mean mesh stiffness without STE (q, 8 entries)."""
@@ -216,6 +218,7 @@ def integrate_from_rest(
         setup.tooth_g,
         n_skip,
         setup.profile,
+        setup.pitch,
     )
     if out.shape[0] != n_out:
         raise RuntimeError("lumped model diverged (non-finite state); reduce the time step (substeps)")

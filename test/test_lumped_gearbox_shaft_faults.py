@@ -50,9 +50,13 @@ def test_kernel_stiffness_drop_normal_to_the_open_crack_only():
         v = np.zeros(8)
         a0, a1 = np.empty(8), np.empty(8)
         s = healthy
-        mdl._rhs(t, q, v, a0, s.geo, s.mass, s.kk, s.cc, s.load, s.fault, s.tooth_p, s.tooth_g, s.profile)
+        mdl._rhs(
+            t, q, v, a0, s.geo, s.mass, s.kk, s.cc, s.load, s.fault, s.tooth_p, s.tooth_g, s.profile, s.pitch
+        )
         s = cracked
-        mdl._rhs(t, q, v, a1, s.geo, s.mass, s.kk, s.cc, s.load, s.fault, s.tooth_p, s.tooth_g, s.profile)
+        mdl._rhs(
+            t, q, v, a1, s.geo, s.mass, s.kk, s.cc, s.load, s.fault, s.tooth_p, s.tooth_g, s.profile, s.pitch
+        )
         expect = 0.25 * k1 * dx / m1 if is_open else 0.0
         assert a1[0] - a0[0] == pytest.approx(expect, rel=1e-9, abs=1e-9 * abs(a0[0]))
         assert a1[1] == a0[1]  # the mouth along x: no force across it

@@ -43,6 +43,7 @@ from gear_rotor_sim.calibration.axial_zero import find_axial_zero
 from gear_rotor_sim.calibration.channel_drift import channel_drift
 from gear_rotor_sim.calibration.channel_leak import leak_fix
 from gear_rotor_sim.calibration.channel_skew import correct_skew
+from gear_rotor_sim.calibration.force_coupling import leave_out_unmeasured_means
 from gear_rotor_sim.calibration.gain_modulation import gain_modulation_fix
 from gear_rotor_sim.calibration.load_check import check_load, radial_channels
 
@@ -300,6 +301,7 @@ def check_conventions(cal: Any) -> np.ndarray:
         if fix.channels:
             base_out = _set_up_again(cal, fix.apply(cal.m.data), fix.issues, n_notes)
     base_out = correct_skew(cal, base_out, n_notes)  # a channel delayed by the acquisition (channel_skew.py)
+    leave_out_unmeasured_means(cal, base_out)  # force sensors without a mean: AC-coupled (force_coupling.py)
     zeros = find_axial_zero(cal)  # an axial force's zero offset (axial_zero.py)
     if zeros:
         data = np.array(cal.m.data, dtype=float, copy=True)
