@@ -51,6 +51,7 @@ REQUESTS = [
     {"type": "gear_misalignment", "member": "pinion", "angle_rad": 1.0e-3, "phase_rad": 0.3},
     {"type": "mesh_stiffness_damping", "stiffness_scale": 1.3, "damping_scale": 0.7},
     {"type": "bearing_stiffness_damping", "stiffness_scale": 0.6, "damping_scale": 1.5},
+    {"type": "shaft_crack", "node": 5, "stiffness_loss": 0.3, "phase_rad": 0.7},
 ]
 BAD = [
     ("[{type: crack, tooth: 5}]", "faults[0].type"),

@@ -22,7 +22,10 @@ calibration and on saved reports (docs/calibration.md Sec. 8.3, "Claims the resi
    spacings 1-6 (``broad``), so a rest concentrated on 1x-3x (a breathing crack's smooth modulation) or in
    no simple pattern is not a tooth's; an eccentricity or unbalance is ``1x``, a gear misalignment ``2x``
    or ``even``, a shaft misalignment (a coupling reaction at order 2 alone, ``faults/shaft.py``) ``2x``
-   only (since session 20: a rest of 2x 41 %, 6x 45 % after it is not its own).
+   only (since session 20: a rest of 2x 41 %, 6x 45 % after it is not its own); a breathing shaft crack
+   (session 22, ``faults/crack.py``: 1x, 2x, 3x of its shaft, also as mesh sidebands) ``1x-3x``, ``2x``,
+   ``1x`` or ``broad`` on its shaft's orders and mesh sidebands (a crack breathing on its vibration too puts
+   sidebands beyond +-3, which the linearised effect leaves; even orders left after it are not its).
 2. **Torsional rest of a lateral effect.** ``shaft_misalignment`` and ``mass_unbalance`` are lateral forces
    at a node (Sec. 3); where the dynamic transmission error's component of the effect's own shaft orders is
    among the trace's largest and its largest feature is the effect's own order (2, 1), standing at least
@@ -69,6 +72,9 @@ OWN_PATTERNS: dict[str, tuple[str, ...]] = {
     "mass_unbalance": ("1x",),
     "shaft_misalignment": ("2x",),  # the library's: a coupling reaction at order 2 alone (faults/shaft.py)
     "misalignment": ("2x", "even"),  # gear or pinion misalignment beyond rho = 1 (+-2 sidebands)
+    # 1x, 2x, 3x of its shaft and as mesh sidebands (faults/crack.py); broad: a crack that breathes on its
+    # vibration too (beyond the load-dominance linearisation) puts sidebands beyond +-3 (history Sec. 8.61)
+    "shaft_crack": ("1x-3x", "2x", "1x", "broad"),
 }
 
 #: lateral effects at a node and their own order (test 2)
@@ -88,7 +94,14 @@ SUSPECT_CONFIDENCE = 0.2
 
 
 def _kind(label: str) -> str:
-    for k in ("tooth_damage", "shaft_misalignment", "mass_unbalance", "eccentricity", "misalignment"):
+    for k in (
+        "tooth_damage",
+        "shaft_crack",
+        "shaft_misalignment",
+        "mass_unbalance",
+        "eccentricity",
+        "misalignment",
+    ):
         if k in label:
             return k
     return ""
@@ -129,7 +142,7 @@ def own_families(effect: dict[str, Any], cfg: Any) -> list[str]:
         shaft = _wheel_shaft(cfg, str(p.get("wheel", label.split("@")[1])), mesh)
     elif kind in ("eccentricity", "misalignment"):
         shaft = _wheel_shaft(cfg, label.split("_")[0], mesh)
-    elif node and kind in LATERAL_ORDER and 0 < int(node.group(1)) <= cfg.n_nodes:
+    elif node and (kind in LATERAL_ORDER or kind == "shaft_crack") and 0 < int(node.group(1)) <= cfg.n_nodes:
         shaft = str(cfg.shafts[cfg.shaft_of_node(int(node.group(1)) - 1)].name)
     if shaft is None:
         return []

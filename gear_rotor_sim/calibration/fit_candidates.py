@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.candidates_crack import fit_shaft_crack
 from gear_rotor_sim.calibration.candidates_misalignment import (
     fit_gear_misalignment,
 )
@@ -37,6 +38,7 @@ from gear_rotor_sim.faults import (
     GearMisalignment,
     MassUnbalance,
     MeshStiffnessDamping,
+    ShaftCrack,
     ShaftMisalignment,
     TemperatureOffset,
     ToothDamage,
@@ -351,4 +353,6 @@ class CandidateFitting:
             return self._fit_stiffness_damping(e, cur)
         if isinstance(e, ToothDamage):
             return self._fit_tooth(e, cur)
+        if isinstance(e, ShaftCrack):
+            return fit_shaft_crack(self, e, cur)  # phase by mesh-period shifts (candidates_crack.py)
         return None

@@ -52,16 +52,19 @@ ORDER_PATTERNS: dict[str, dict[str, Any]] = {
         "library": [
             ("shaft_misalignment", "shaft_misalignment (an order-2 force at a node)"),
             ("_misalignment@", "gear_misalignment beyond rho = 1 (2x)"),
+            ("shaft_crack", "shaft_crack (1x + 2x + 3x, 2x strong)"),
         ],
         "outside": [
-            "breathing shaft crack (1x + 2x + 3x, 2x strong)",
             "angular (Cardan / coupling) misalignment (2x, even orders, torsional)",
             "loose support (harmonics, 0.5x)",
         ],
     },
     "1x-3x": {
-        "library": [("tooth_damage", "tooth_damage (a broad comb with sidebands, not 1x-3x alone)")],
-        "outside": ["breathing shaft crack", "looseness", "rub", "coupling misalignment"],
+        "library": [
+            ("shaft_crack", "shaft_crack (a breathing crack: 1x, 2x, 3x of its shaft)"),
+            ("tooth_damage", "tooth_damage (a broad comb with sidebands, not 1x-3x alone)"),
+        ],
+        "outside": ["looseness", "rub", "coupling misalignment"],
     },
     "even": {
         "library": [("shaft_misalignment", "shaft_misalignment (order 2 only)")],
@@ -80,12 +83,18 @@ SIDEBAND_PATTERNS: dict[str, dict[str, Any]] = {
         "outside": ["run-out of the wheel (any cause)", "shaft crack (1x modulation)"],
     },
     "2x": {
-        "library": [("_misalignment@", "gear_misalignment beyond rho = 1 (+-2)")],
-        "outside": ["breathing shaft crack", "speed fluctuation at 2x (Cardan joint)"],
+        "library": [
+            ("_misalignment@", "gear_misalignment beyond rho = 1 (+-2)"),
+            ("shaft_crack", "shaft_crack (its dynamic share: +-1 to +-3, +-2 strong)"),
+        ],
+        "outside": ["speed fluctuation at 2x (Cardan joint)"],
     },
     "1x-3x": {
-        "library": [("tooth_damage", "tooth_damage (a broad comb, not +-1 to +-3 alone)")],
-        "outside": ["breathing shaft crack modulating the mesh (1x-3x)", "looseness"],
+        "library": [
+            ("shaft_crack", "shaft_crack modulating the mesh (its dynamic share: +-1 to +-3)"),
+            ("tooth_damage", "tooth_damage (a broad comb, not +-1 to +-3 alone)"),
+        ],
+        "outside": ["looseness"],
     },
     "even": {
         "library": [("_misalignment@", "gear_misalignment beyond rho = 1 (+-2)")],

@@ -4,8 +4,8 @@ One description of each change, applied by the simulator whoever asked for it: t
 ``record --faults`` inject it, datasets label with it, the calibration fits its parameters
 (``../shared/ARCHITECTURE.md``, "Effects and faults"). Modules: ``base`` (Effect protocol
 defaults, parameter specs), ``gear``, ``shaft``, ``bearing``, ``operating`` (temperature offset),
-``baseline`` (uncertain nominal parameters, never reported as faults), ``library`` (names and the
-candidate set of a rig).
+``crack`` (a breathing shaft crack), ``baseline`` (uncertain nominal parameters, never reported as
+faults), ``library`` (names and the candidate set of a rig).
 """
 
 from gear_rotor_sim.faults.base import Effect, ParameterSpec
@@ -22,6 +22,7 @@ from gear_rotor_sim.faults.bearing import (
     static_bearing_force,
     static_load_angle,
 )
+from gear_rotor_sim.faults.crack import ShaftCrack
 from gear_rotor_sim.faults.gear import (
     GearEccentricity,
     GearMisalignment,
@@ -58,6 +59,7 @@ __all__ = [
     "MassUnbalance",
     "MeshStiffnessDamping",
     "ParameterSpec",
+    "ShaftCrack",
     "ShaftMisalignment",
     "TemperatureOffset",
     "ToothDamage",

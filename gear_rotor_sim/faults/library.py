@@ -9,6 +9,7 @@ from gear_rotor_sim.config import RigConfig
 from gear_rotor_sim.faults.base import Effect
 from gear_rotor_sim.faults.baseline import BearingStiffnessDamping, MeshStiffnessDamping
 from gear_rotor_sim.faults.bearing import BEARING_6206, BearingDefect, BearingGeometry
+from gear_rotor_sim.faults.crack import ShaftCrack
 from gear_rotor_sim.faults.gear import GearEccentricity, GearMisalignment, ToothDamage, ToothWear
 from gear_rotor_sim.faults.operating import TemperatureOffset
 from gear_rotor_sim.faults.shaft import MassUnbalance, ShaftMisalignment
@@ -35,6 +36,7 @@ LIBRARY_NAMES: tuple[str, ...] = (
     "outer_race_defect",
     "inner_race_defect",
     "ball_defect",
+    "shaft_crack",
 )
 
 
@@ -46,6 +48,7 @@ def candidate_effects(
     misalignment_nodes: tuple[int, ...] | None = None,
     names: tuple[str, ...] | None = None,
     bearing_pulse_s: float | None = None,
+    crack_nodes: tuple[int, ...] | None = None,
 ) -> list[Effect]:
     """All library effects applicable to a rig, each at its neutral value with its location fixed.
 
@@ -65,6 +68,9 @@ def candidate_effects(
     bearing_pulse_s : float, optional
         Fixed impact duration of the bearing defects (default: the transit time over the nominal
         spall, ``BearingDefect``).
+    crack_nodes : tuple of int, optional
+        1-based nodes offered a breathing shaft crack (``faults/crack.py``); None (the default): the
+        pinion seat of every mesh; ``()`` offers none.
     """
     out: list[Effect] = []
     has_mesh = bool(cfg.meshes)
@@ -88,6 +94,9 @@ def candidate_effects(
         out += [ToothWear(mesh=k) for k in meshes]
         out += [GearMisalignment(member=w, mesh=k) for k in meshes for w in wheels]
     out.append(TemperatureOffset())
+    if crack_nodes is None:
+        crack_nodes = tuple(dict.fromkeys(cfg.gear(m.pinion).node0 + 1 for m in cfg.meshes))
+    out += [ShaftCrack(node=n) for n in crack_nodes]
     for kind in ("outer", "inner", "ball"):
         out += [
             BearingDefect(kind=kind, bearing=b, geometry=bearing_geometry, pulse_s=bearing_pulse_s)
@@ -127,6 +136,7 @@ EFFECT_TYPES: dict[str, Any] = {
     "outer_race_defect": functools.partial(BearingDefect, kind="outer"),
     "inner_race_defect": functools.partial(BearingDefect, kind="inner"),
     "ball_defect": functools.partial(BearingDefect, kind="ball"),
+    "shaft_crack": ShaftCrack,
     "mesh_stiffness_damping": MeshStiffnessDamping,
     "bearing_stiffness_damping": BearingStiffnessDamping,
 }

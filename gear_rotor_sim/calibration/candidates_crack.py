@@ -1,0 +1,247 @@
+"""Fit of a breathing shaft crack (``faults/crack.py``) as a candidate: the crack mouth's phase by whole
+mesh-period shifts of two signatures, the stiffness loss on the scaled signature (docs/calibration.md
+Sec. 4).
+
+The crack's load is a fixed periodic function of its shaft's angle plus ``phase_rad`` (1x, 2x, 3x in fixed
+ratios), so a change of phase is not a cos/sin pair (each order turns by its own multiple of the phase).
+The healthy model is periodic over one mesh period, so the response to the crack at ``phase - 2 pi j / z``
+(``z`` the teeth of the wheel on the cracked shaft) is exactly the response at ``phase`` delayed by ``j``
+mesh periods (the same argument as a damaged tooth's index, ``fit_candidates._fit_tooth``): two runs, at
+phase 0 and half a step, shifted by whole mesh periods give ``2 z`` phases (6.2 deg apart on the paper
+pinion). The response is linear in the crack's load where the teeth stay in contact, and the load grows as
+``l / (1 - c l)`` with the loss ``l`` (``c`` the mean of ``k_s n^T B n`` over the open half turn, the
+quasi-static self-consistency of ``faults/crack.py``), so one loss per phase run is scaled; the accepted
+loss is then refined on full simulations like every nonlinear scalar (``fit_refine.py``).
+
+The crack's dynamic share (``ShaftCrack.mesh_deflection``: the breathing stiffness against the shaft's
+vibration at the mesh frequency, which puts the crack's orders as sidebands about the mesh harmonics) needs
+the machine's dynamic bending deflection at the node: it is taken from the current (baseline-updated)
+model's own healthy run, its node and bearing-node displacements over whole hunting periods projected on
+the mesh harmonics (:func:`mesh_deflection`). That share grows linearly with the loss, the static one as
+``l / (1 - c l)``: each phase gets a run with and one without it (four runs in all), scaled apart.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from gear_rotor_sim.calibration.fit_types import CandidateFit
+from gear_rotor_sim.calibration.model_runner import cached_system
+from gear_rotor_sim.calibration.model_window import whole_periods_samples
+from gear_rotor_sim.calibration.residual import ModelFeatures
+from gear_rotor_sim.faults.crack import ShaftCrack, bearing_line_weights
+from gear_rotor_sim.solver.excitation import mesh_phases
+
+#: the loss of the signature runs (the middle of the generator's and the literature's shallow cracks)
+REFERENCE_LOSS = 0.3
+#: mesh harmonics of the dynamic deflection kept (the features hold the mesh harmonics below 0.42 fs)
+HARMONICS = 5
+#: whether the crack's dynamic share is fitted (the static linearisation alone when False)
+DYNAMIC_SHARE = True
+#: bound of the dynamic share's complex gain on the healthy model's deflection (a nuisance: the two models'
+#: mesh-frequency dynamics differ; the FE's bending at the mesh harmonic is 3-8 x below the generator's)
+GAIN_MAX = 20.0
+
+
+def wheel_teeth(cfg: Any, node0: int) -> int:
+    """Teeth of the first wheel on the shaft of ``node0`` (0 if the shaft carries none)."""
+    shaft = cfg.shaft_of_node(node0)
+    for g in cfg.gears:
+        if cfg.shaft_of_node(g.node0) == shaft:
+            return int(g.teeth)
+    return 0
+
+
+def load_growth(e: ShaftCrack, system: Any) -> float:
+    """``c`` of the load's growth ``l / (1 - c l)``: the mean of ``k_s n^T B n`` over the open half turn."""
+    d0, B, ks = e.terms(system)
+    alpha = math.atan2(d0[1], d0[0])
+    psi = alpha + np.linspace(-0.5 * math.pi, 0.5 * math.pi, 181)
+    c, s = np.cos(psi), np.sin(psi)
+    return float(np.mean(ks * (B[0, 0] * c * c + (B[0, 1] + B[1, 0]) * c * s + B[1, 1] * s * s)))
+
+
+def crack_mesh(system: Any, node0: int) -> int:
+    """1-based mesh of the first wheel on the shaft of ``node0`` (0 if none)."""
+    shaft = int(system.shaft_of_node[node0])
+    for i, m in enumerate(system.meshes):
+        if shaft in (m.pinion_shaft, m.gear_shaft):
+            return i + 1
+    return 0
+
+
+def mesh_deflection(cal: Any, e: ShaftCrack) -> tuple[tuple[complex, ...], int]:
+    """Mesh harmonics ``D_h`` of the current healthy model's dynamic bending deflection at the crack's node
+    (``ShaftCrack.mesh_deflection``) and the mesh they follow; ``((), 0)`` without a mesh on its shaft.
+
+    One run of the current model (baseline sets and effects found before the baseline) with the node's and
+    its shaft's bearing nodes' x and y displacements, over the whole hunting periods of the model window;
+    ``D_h = 2 / N sum_t (d(t) - mean) e^{-2 pi i h u(t)}``, ``u`` the mesh phase at the window's times.
+    """
+    runner = cal.runner
+    cfg = runner.cfg
+    op = cal.m.operating_point
+    system = cached_system(cfg, op.temperature_c)
+    mesh = crack_mesh(system, e.node - 1)
+    if mesh == 0:
+        return (), 0
+    weights = bearing_line_weights(system, e.node - 1)
+    nodes = [e.node, *[nb + 1 for nb in weights]]
+    channels = [f"node{n}_{d}" for n in nodes for d in ("x", "y")]
+    n = whole_periods_samples(cfg, op.speed_rpm, runner.sample_rate_hz, runner.n_model)
+    sibling = dataclasses.replace(
+        runner,
+        channels=channels,
+        sensors={},
+        n_model=n,
+        instantaneous_misalignment=False,
+        n_runs=0,
+        n_moved=0,
+    )
+    data = sibling.force_signals((*cal.baseline, *cal.pre_effects))
+    runner.n_runs += sibling.n_runs
+    d = data[:, 0:2].copy()
+    for k, w in enumerate(weights.values()):
+        d -= w * data[:, 2 + 2 * k : 4 + 2 * k]
+    t = (round(runner.start_time * runner.sample_rate_hz) + np.arange(d.shape[0])) / runner.sample_rate_hz
+    u = mesh_phases(system, op.speed_rpm * math.pi / 30.0 * t)[:, mesh - 1]
+    rot = np.exp(-2j * np.pi * np.outer(u, np.arange(1, HARMONICS + 1)))
+    coef = 2.0 / d.shape[0] * (rot.T @ (d - d.mean(axis=0)))  # (H, 2)
+    return tuple(complex(c) for c in np.concatenate([coef[:, 0], coef[:, 1]])), mesh
+
+
+def linear_coefficients(cal: Any, cur: ModelFeatures, cols: list[ModelFeatures]) -> np.ndarray | None:
+    """Weighted least-squares coefficients ``c`` of ``cur + sum c_k cols_k`` on the order features, the
+    gains re-fitted three times (the amplitude/phase fit's normal equations,
+    ``fit_candidates._fit_phase_amplitude``, for any number of columns); None if singular."""
+    cmp = cal.cmp
+    g = cmp.fit_gains(cur)
+    c = np.zeros(len(cols))
+    for _ in range(3):
+        A = np.zeros((len(cols), len(cols)))
+        rhs = np.zeros(len(cols))
+        for ci in range(cmp.nc):
+            for s in range(len(cmp.shafts)):
+                gc = cmp.order_gain(g, ci, s)
+                model = gc * (
+                    cur.order[ci][s] + sum(ck * f.order[ci][s] for ck, f in zip(c, cols, strict=True))
+                )
+                w = 2.0 / cmp.order_sigma2(ci, s, model)
+                r = cmp.d_order[ci][s] - gc * cur.order[ci][s]
+                xs = [gc * f.order[ci][s] for f in cols]
+                for i, xi in enumerate(xs):
+                    rhs[i] += float(np.sum(w * np.real(np.conj(xi) * r)))
+                    for j, xj in enumerate(xs):
+                        A[i, j] += float(np.sum(w * np.real(np.conj(xi) * xj)))
+        if not np.all(np.isfinite(A)) or np.linalg.det(A) <= 0:
+            return None
+        c = np.linalg.solve(A, rhs)
+        feats = cur
+        for ck, f in zip(c, cols, strict=True):
+            feats = feats.combo(f, float(ck))
+        g = cmp.fit_gains(feats)
+    return c
+
+
+def fit_shaft_crack(cal: Any, e: ShaftCrack, cur: ModelFeatures) -> CandidateFit | None:
+    """Loss and phase of a crack at ``e.node`` against the current model's features ``cur``.
+
+    Parameters
+    ----------
+    cal : Calibrator
+        The calibration (its signatures, comparison and chi^2).
+    e : ShaftCrack
+        The candidate at its node.
+    cur : ModelFeatures
+        Features of the current model.
+
+    Returns
+    -------
+    CandidateFit or None
+        None where the crack's shaft carries no wheel (no mesh period to shift by) or the signature is
+        zero.
+    """
+    cfg = cal.runner.cfg
+    op = cal.m.operating_point
+    z = wheel_teeth(cfg, e.node - 1)
+    if z == 0:
+        return None
+    from gear_rotor_sim.system import shaft_speed_ratios
+
+    ratio = abs(float(shaft_speed_ratios(cfg)[cfg.shaft_of_node(e.node - 1)]))
+    fm = z * ratio * op.speed_rpm / 60.0
+    c_growth = load_growth(e, cached_system(cfg, op.temperature_c))
+    upper = e.specs[0].upper
+
+    def growth(loss: float) -> float:
+        return loss / max(1.0 - c_growth * loss, 1e-6)
+
+    half = math.pi / z
+    coef, mesh = mesh_deflection(cal, e) if DYNAMIC_SHARE else ((), 0)
+    if coef:
+        e = dataclasses.replace(e, mesh_deflection=coef, mesh=mesh)
+
+    def base(ph: float) -> list[ModelFeatures]:
+        """Columns at phase ``ph``: the static share per unit of ``g(l)``; with a dynamic share, the share
+        (the run with it less the run without) per unit of loss, and the same with ``i D_h`` (its
+        quadrature: the gain ``gamma`` on the model's deflection is complex)."""
+        at = e.with_parameters(stiffness_loss=REFERENCE_LOSS, phase_rad=ph)
+        static = cal._signature(dataclasses.replace(at, mesh_deflection=()))
+        out = [static.scaled(1.0 / growth(REFERENCE_LOSS))]
+        if coef:
+            quad = dataclasses.replace(at, mesh_deflection=tuple(1j * c for c in coef))
+            out += [cal._signature(x).combo(static, -1.0).scaled(1.0 / REFERENCE_LOSS) for x in (at, quad)]
+        return out
+
+    bases = [base(ph) for ph in (0.0, -half)]
+    if all(cal._is_zero(b[0]) for b in bases):
+        return None
+    analytic = not cal.cmp.env_non_sync
+    tau = cal.cmp.best_shift(cur)
+    cur_tau = cal.cmp.apply_shift(cur, tau)
+
+    def columns(j: int) -> list[ModelFeatures]:
+        """The columns at phase ``-j pi / z``: the base runs delayed by ``j // 2`` mesh periods."""
+        return [cal.cmp.shifted(b, (j // 2) / fm, analytic=analytic) for b in bases[j % 2]]
+
+    def solve(j: int) -> tuple[float, complex, ModelFeatures, list[ModelFeatures]] | None:
+        """Loss, dynamic gain and features at phase ``j`` from the linear fit of the columns."""
+        cols = columns(j)
+        c = linear_coefficients(cal, cur_tau, [cal.cmp.apply_shift(x, tau) for x in cols])
+        if c is None:
+            return None
+        x = max(float(c[0]), 0.0)
+        loss = min(x / (1.0 + c_growth * x), upper)
+        gain = complex(c[1], c[2]) / loss if len(c) == 3 and loss > 0 else 0j
+        if abs(gain) > GAIN_MAX:
+            gain *= GAIN_MAX / abs(gain)
+        return loss, gain, features(cols, loss, gain), cols
+
+    def features(cols: list[ModelFeatures], loss: float, gain: complex) -> ModelFeatures:
+        out = cur.combo(cols[0], growth(loss))
+        if len(cols) == 3:
+            out = out.combo(cols[1], loss * gain.real).combo(cols[2], loss * gain.imag)
+        return out
+
+    def phase_of(j: int) -> float:
+        return float(math.remainder(-j * half, 2.0 * math.pi))
+
+    fits = {j: solve(j) for j in range(2 * z)}
+    chi = {j: cal._chi2(f[2]) for j, f in fits.items() if f is not None}
+    if not chi:
+        return None
+    j_best = min(chi, key=chi.__getitem__)
+    loss, gain, feats, cols = fits[j_best]
+    sd = cal._curvature_sigma(
+        lambda p: cal._chi2(features(cols, p, gain)), loss, chi[j_best], 0.02 * max(loss, 0.05), 4, 0.0
+    )
+    eff = e.with_parameters(stiffness_loss=loss, phase_rad=phase_of(j_best))
+    if coef:
+        eff = dataclasses.replace(eff, mesh_deflection=tuple(gain * c for c in coef))
+    # the phase is read on a grid of pi / z: its uncertainty is at least the grid's (uniform, step / sqrt 12)
+    unc = {"stiffness_loss": sd, "phase_rad": half / math.sqrt(12.0)}
+    return CandidateFit(eff, cal.cmp.score(feats), None, 4 if coef else 2, unc, feats=feats)

@@ -1,0 +1,275 @@
+"""A breathing transverse shaft crack at a node, linearised about the static deflection (load dominance).
+
+Physics
+-------
+A transverse crack removes bending stiffness about the axis along its front while its mouth is on the
+tension side of the bent shaft, and none while it is pressed shut (Gasch 1976, 1993; Dimarogonas 1996).
+Where the static deflection of the shaft dominates its vibration (a weight- or load-dominated rotor:
+Mayes & Davies 1984; Penny & Friswell 2002, J. Sound Vib. 259(3)), the crack opens and closes under
+that deflection, which is fixed in space, so its breathing is a known periodic function of the shaft
+angle. Written as an extra load on the healthy shaft (the FE shaft keeps its stiffness; the crack adds
+what the lost stiffness no longer resists): ``f`` at the cracked node and ``-w_b f`` at the shaft's bearing
+nodes (``P^T f``, ``P`` the map from the state to the bending deflection below; the crack is internal to
+the shaft, so the pair is self-equilibrated and the static bearing reactions keep the mesh load), with::
+
+    f(psi) = beta(psi) dk (n . d) n,      n = (cos, sin)(theta_s + phi),      dk = stiffness_loss k_s,
+
+with ``theta_s`` the signed angle of the node's shaft (``n`` turns with it, either way), ``phi`` the crack
+mouth's angle at shaft angle 0 (``phase_rad``), ``d`` the shaft's bending deflection at the node (the
+node's lateral displacement less the bearing line's, linearly between the shaft's bearing nodes) and
+``k_s`` the FE shaft's own lateral bending stiffness at the node (the shaft elements alone, pinned at
+its bearing nodes: ``1 / C``, ``C`` the node's static compliance; the two directions of a round shaft
+agree, their mean is taken). ``stiffness_loss`` is thus the drop of the shaft's lateral stiffness normal
+to the open crack as a fraction of its stiffness at that node: the same quantity as the fraction of a
+lumped rotor's shaft spring (Jeffcott, load at the crack), which is how the independent generator
+defines its ``stiffness_loss`` (``lumped_gearbox/shaft_faults.py``). The mapping assumes the crack sits
+at the node where the load acts (the pinion's seat: the bending moment and the deflection are largest
+there) and the FE shaft between its bearings bends like the lumped spring.
+
+Linearisation: ``d`` is the static deflection ``d0`` of the healthy machine under the mean mesh load
+(``system.static_solution``) plus the static deflection the crack's own force adds: ``d = d0 + B f``,
+``B`` the 2x2 static compliance of the whole FE model (shaft, bearings, mesh) from the crack's load pair
+to the node's bending deflection. With ``f = a n`` that gives, per angle, the quasi-static solution
+
+    a(psi) = beta(psi) dk (n . d0) / (1 - beta(psi) dk n^T B n),
+
+exact for a one-spring shaft (``(k I - dk n n^T)^-1``: the extra deflection is ``dk / (k - dk)``, not
+``dk / k``, times the load), which is why the 30 % crack of the generator is not read 30 % low.
+
+Breathing law ``beta``: ``switching`` (default; Gasch's hinge crack, open while ``n . d0 > 0``) or
+``cosine`` (Mayes & Davies 1984: ``beta = (1 + cos(psi - alpha)) / 2``, ``alpha`` the angle of ``d0``,
+a smooth transition). Switching is the default: a straight-front crack under load dominance opens and
+closes where the bending stress at its mouth changes sign, the force ``dk (n . d0) n`` is continuous
+there (``n . d0 = 0``), and the two laws agree within a few percent on 1x and 2x for shallow cracks
+(Penny & Friswell 2002); the cosine law has a larger 1x and no 4x.
+
+Signature, switching law (``g(x) = max(cos x, 0) = 1/pi + cos(x) / 2 + 2 / (3 pi) cos(2x) - ...``,
+``A = dk |d0|``): in complex form ``f_x + i f_y = A sum_k g_k e^{ik(psi - alpha)} e^{i psi}``: a constant
+force ``A / 4`` along ``d0`` (order 0, a static share), a forward 1x of ``A / pi``, a forward 2x of
+``A / 4``, a forward 3x and a backward 1x of ``A / (3 pi)``, then orders 5 and -3 (``A / (15 pi)``): 1x,
+2x and 3x of the cracked shaft in fixed ratios and with phases fixed by ``alpha``: the classic crack
+signature (Sabnavis et al. 2004, Shock Vib. Digest 36).
+
+The dynamic share (optional, ``mesh_deflection``): the open crack also drops the stiffness against the
+shaft's vibration, so to first order in ``dk`` the force holds ``beta(psi) dk (n . d_dyn(t)) n`` with
+``d_dyn`` the healthy machine's dynamic bending deflection at the node. Where the teeth stay in contact
+that is periodic in the mesh phase ``u`` (the mesh stiffness and transmission error drive it), so it is
+given by its mesh harmonics ``D_h``: the crack then modulates the mesh-frequency deflection by the shaft's
+breathing, which puts sidebands +-1, +-2, +-3 of the cracked shaft about the mesh harmonics (what a crack
+breathing on the instantaneous deflection makes where a lateral mode lies near the mesh frequency). The
+opening stays the static one (load dominance) and the dynamic share is not made self-consistent (first
+order in ``dk``).
+
+What the linearisation leaves out: the opening and closing by the vibration itself (beyond load
+dominance), the dynamic share's own feedback (the crack's response changes ``d_dyn``), the crack's
+effect on the eigenfrequencies (they drop by about ``loss / 2`` of the shaft's share while open), any
+coupling to torsion or the axial direction, and a deflection that is not periodic in the mesh phase
+(where the teeth separate, only its mesh-synchronous part is in ``D_h``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from gear_rotor_sim.faults.base import Effect, ParameterSpec, node_xy_columns, shaft_index
+
+BREATHING_LAWS = ("switching", "cosine")
+
+
+def _bending_dofs(node0: int) -> list[int]:
+    return [6 * node0 + j for j in (0, 1, 3, 4)]  # x, y, theta_x, theta_y
+
+
+def bearing_line_weights(system: Any, node0: int) -> dict[int, float]:
+    """Weights of the shaft's bearing nodes whose lateral displacement, so weighted, is the bearing line
+    at ``node0`` (linear between the two outermost bearing nodes of its shaft; one bearing: that node).
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    node0 : int
+        0-based node.
+    """
+    shaft = shaft_index(system, node0)
+    nodes = sorted(
+        {b.node0 for b in system.bearings if int(system.shaft_of_node[b.node0]) == shaft},
+        key=lambda n: float(system.node_positions[n]),
+    )
+    if not nodes:
+        raise ValueError(f"node {node0 + 1}: its shaft has no bearing (a crack needs a supported shaft)")
+    if len(nodes) == 1 or nodes[0] == nodes[-1]:
+        return {nodes[0]: 1.0}
+    a, b = nodes[0], nodes[-1]
+    pa, pb, p = (float(system.node_positions[i]) for i in (a, b, node0))
+    w = (p - pa) / (pb - pa)
+    return {a: 1.0 - w, b: w}
+
+
+def deflection_map(system: Any, node0: int) -> np.ndarray:
+    """``P`` (2, ndof): the lateral (x, y) deflection of ``node0`` from its shaft's bearing line is ``P q``;
+    ``P^T f`` is the self-equilibrated load of a force ``f`` acting across the crack."""
+    P = node_xy_columns(system, node0).T
+    for nb, w in bearing_line_weights(system, node0).items():
+        P -= w * node_xy_columns(system, nb).T
+    return P
+
+
+def shaft_stiffness(system: Any, node0: int) -> np.ndarray:
+    """(2, 2) lateral bending stiffness of the shaft elements alone at ``node0``, pinned at the shaft's
+    bearing nodes (their x and y held, rotations free; a single bearing also holds its rotations): the
+    inverse of the node's static compliance, N/m.
+    """
+    K = np.array(system.K, dtype=float, copy=True)
+    for b in system.bearings:
+        idx = np.arange(6 * b.node0, 6 * b.node0 + 6)
+        K[np.ix_(idx, idx)] -= b.stiffness
+    shaft = shaft_index(system, node0)
+    nodes = [int(n) for n in np.flatnonzero(np.asarray(system.shaft_of_node) == shaft)]
+    held = set()
+    weights = bearing_line_weights(system, node0)
+    for nb in weights:
+        held.update((6 * nb, 6 * nb + 1))
+        if len(weights) == 1:
+            held.update((6 * nb + 3, 6 * nb + 4))
+    dofs = [d for n in nodes for d in _bending_dofs(n) if d not in held]
+    pos = {d: i for i, d in enumerate(dofs)}
+    rhs = np.zeros((len(dofs), 2))
+    rhs[pos[6 * node0], 0] = 1.0
+    rhs[pos[6 * node0 + 1], 1] = 1.0
+    sol = np.linalg.solve(K[np.ix_(dofs, dofs)], rhs)
+    compliance = sol[[pos[6 * node0], pos[6 * node0 + 1]], :]
+    return np.linalg.inv(compliance)
+
+
+def static_terms(system: Any, node0: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """``d0`` (2,), ``B`` (2, 2) and the scalar shaft stiffness ``k_s`` of the linearisation (module
+    docstring): the healthy static bending deflection at ``node0`` under the mean mesh load, the static
+    compliance ``P K^-1 P^T`` of the whole model (shaft, bearings, mean mesh stiffness) from the crack's
+    load pair to the bending deflection, and the mean of the shaft stiffness's two diagonal terms.
+    """
+    import warnings
+
+    from gear_rotor_sim.system import static_solution
+
+    with warnings.catch_warnings():  # an unloaded mesh: the engaged solution is still the deflection
+        warnings.simplefilter("ignore")
+        q0 = static_solution(system)
+    P = deflection_map(system, node0)
+    d0 = P @ q0
+    K = np.array(system.K, dtype=float, copy=True)
+    for m in system.meshes:
+        v = m.line_of_action
+        K += float(m.mean_stiffness) * np.outer(v, v)
+    f = system.free_dofs
+    q = np.zeros((system.ndof, 2))
+    q[f] = np.linalg.solve(K[np.ix_(f, f)], P.T[f])
+    B = P @ q
+    ks = shaft_stiffness(system, node0)
+    return d0, B, float(0.5 * (ks[0, 0] + ks[1, 1]))
+
+
+def breathing(law: str, psi: np.ndarray, d0: np.ndarray) -> np.ndarray:
+    """Breathing function ``beta(psi)`` in [0, 1] of the crack mouth angle ``psi`` (module docstring)."""
+    proj = np.cos(psi) * d0[0] + np.sin(psi) * d0[1]
+    if law == "switching":
+        return (proj > 0.0).astype(float)
+    norm = float(np.hypot(d0[0], d0[1]))
+    return 0.5 * (1.0 + proj / norm) if norm > 0 else np.zeros_like(proj)
+
+
+@dataclass(frozen=True)
+class ShaftCrack(Effect):
+    """A breathing transverse crack at a shaft node (module docstring).
+
+    Parameters
+    ----------
+    node : int
+        1-based node of the crack (default 5, the paper gearbox's pinion seat).
+    stiffness_loss : float
+        Drop of the shaft's lateral stiffness normal to the open crack, a fraction of the FE shaft's
+        bending stiffness at the node.
+    phase_rad : float
+        Angle of the crack mouth at shaft angle 0, rad.
+    breathing : str
+        ``switching`` (default) or ``cosine``.
+    mesh_deflection : tuple of complex
+        The dynamic share (module docstring): the healthy machine's bending deflection at the node over
+        the phase ``u`` of mesh ``mesh``, ``d_dyn(u) = Re sum_h D_h e^{2 pi i h u}``, as ``(D_x1 .. D_xH,
+        D_y1 .. D_yH)`` in m; empty (default): the static linearisation alone. The calibration sets it
+        from its healthy model run (``calibration/candidates_crack.py``).
+    mesh : int
+        1-based mesh whose phase ``mesh_deflection`` follows.
+    """
+
+    node: int = 5
+    stiffness_loss: float = 0.0
+    phase_rad: float = 0.0
+    breathing: str = "switching"
+    mesh_deflection: tuple[complex, ...] = ()
+    mesh: int = 1
+    _cache: dict = field(default_factory=dict, compare=False, repr=False)
+    name: ClassVar[str] = "shaft_crack"
+    signature: ClassVar[str] = (
+        "orders 1x, 2x, 3x of the cracked shaft in fixed ratios (2x strong), a static share, sidebands "
+        "at the mesh orders"
+    )
+    specs: ClassVar[tuple[ParameterSpec, ...]] = (
+        ParameterSpec(
+            "stiffness_loss", "1", 0.0, 0.8, "scalar", "lateral stiffness drop of the open crack, fraction"
+        ),
+        ParameterSpec("phase_rad", "rad", -math.pi, math.pi, "phase", "crack mouth angle at shaft angle 0"),
+    )
+
+    def __post_init__(self) -> None:
+        if self.breathing not in BREATHING_LAWS:
+            raise ValueError(f"breathing: {self.breathing!r} is not one of {list(BREATHING_LAWS)}")
+
+    @property
+    def label(self) -> str:
+        return f"shaft_crack@node{self.node}"
+
+    def terms(self, system: Any) -> tuple[np.ndarray, np.ndarray, float]:
+        """``static_terms`` of ``system`` at the crack's node, cached per system."""
+        key = (id(system), self.node)
+        hit = self._cache.get(key)
+        if hit is None or hit[0] is not system:
+            if len(self._cache) > 8:
+                self._cache.clear()
+            hit = (system, static_terms(system, self.node - 1))
+            self._cache[key] = hit
+        return hit[1]
+
+    def external_forces(self, system: Any) -> np.ndarray | None:
+        """``P^T``: the force ``f`` at the node and ``-w_b f`` at the shaft's bearing nodes (the bearing
+        line's weights), a self-equilibrated pair: the crack is internal to the shaft, so it moves no
+        static load into the bearings (a force at the node alone would add ``f`` to their reactions)."""
+        if self.stiffness_loss == 0.0:
+            return None
+        return deflection_map(system, self.node - 1).T
+
+    def force_amplitudes(self, ctx: Any) -> np.ndarray | None:
+        if self.stiffness_loss == 0.0:
+            return None
+        d0, B, ks = self.terms(ctx.system)
+        psi = ctx.shaft_angle[:, shaft_index(ctx.system, self.node - 1)] + self.phase_rad
+        c, s = np.cos(psi), np.sin(psi)
+        dk = self.stiffness_loss * ks
+        beta = breathing(self.breathing, psi, d0)
+        nbn = B[0, 0] * c * c + (B[0, 1] + B[1, 0]) * c * s + B[1, 1] * s * s
+        a = beta * dk * (c * d0[0] + s * d0[1]) / (1.0 - beta * dk * nbn)
+        if self.mesh_deflection:
+            ddx, ddy = self.dynamic_deflection(ctx)
+            a = a + beta * dk * (c * ddx + s * ddy)
+        return np.column_stack([a * c, a * s])
+
+    def dynamic_deflection(self, ctx: Any) -> tuple[np.ndarray, np.ndarray]:
+        """``d_dyn`` (x, y) at the steps of ``ctx`` from :attr:`mesh_deflection` and the mesh phase."""
+        coef = np.asarray(self.mesh_deflection, dtype=complex).reshape(2, -1)
+        phases = ctx.mesh_phases if getattr(ctx, "mesh_phases", None) is not None else ctx.mesh_phase[:, None]
+        u = phases[:, self.mesh - 1]
+        rot = np.exp(2j * np.pi * np.outer(u, np.arange(1, coef.shape[1] + 1)))
+        return np.real(rot @ coef[0]), np.real(rot @ coef[1])
