@@ -18,10 +18,12 @@ runs without it, and prints both medians and their ratio (e.g. the cost of a mis
 axial force the simulator takes from a running average of its own mesh force).
 
     . scripts/env.sh && python benchmarks/bench_node.py [--speeds 3000 20000] [--runs 3] [--burst]
-        [--model NAME] [--faults FILE] [--replay on|off|both]
+        [--model NAME] [--faults FILE] [--replay on|off|both|faults|all]
 
 ``--replay``: the node's ``periodic_replay`` (default on, as the node's default; docs/solver.md,
-"Periodic replay at steady state"); ``both`` runs with and without it, interleaved.
+"Periodic replay at steady state"); ``both`` runs with and without it, interleaved; ``faults`` with it and
+``periodic_replay_faults`` (faults replayed where the plain integration does not repeat), ``all`` the
+three interleaved.
 """
 
 from __future__ import annotations
@@ -59,7 +61,7 @@ def _sim_args(
     mcap: Path,
     model: str | None = None,
     faults: Path | None = None,
-    replay: bool = True,
+    replay: str = "on",
 ) -> list[str]:
     return [
         "--ros-args",
@@ -78,7 +80,9 @@ def _sim_args(
         "-p",
         "diagnostics_period_s:=0.5",
         "-p",
-        f"periodic_replay:={'true' if replay else 'false'}",
+        f"periodic_replay:={'false' if replay == 'off' else 'true'}",
+        "-p",
+        f"periodic_replay_faults:={'true' if replay == 'faults' else 'false'}",
     ]
 
 
@@ -131,10 +135,11 @@ def run_once(
     workdir: Path,
     model: str | None = None,
     faults: Path | None = None,
-    replay: bool = True,
+    replay: str = "on",
 ) -> float:
     """Achieved real-time factor of one node run at ``speed`` rpm (``model``: the node's default;
-    ``faults``: a fault list file; ``replay``: the node's ``periodic_replay``)."""
+    ``faults``: a fault list file; ``replay``: ``on`` / ``off`` the node's ``periodic_replay``, ``faults``
+    on with ``periodic_replay_faults``)."""
     env = ros_environment()
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     mcap = workdir / f"bench_{int(speed)}.mcap"
@@ -164,11 +169,11 @@ def run_once(
         if name in cpu0 and name in cpu1 and sim_s > 0
     )
     print(
-        f"  {speed:7.0f} rpm{' (faults)' if faults else ''}: achieved RTF {rtf:6.2f} "
+        f"  {speed:7.0f} rpm{' (faults)' if faults else ''} replay {replay}: achieved RTF {rtf:6.2f} "
         f"({sim_s:.2f} s simulated in "
         f"{p1[0] - p0[0]:.2f} s wall; MCAP {size:.1f} MB"
         + (f"; ms CPU per simulated s{threads}" if threads else "")
-        + ")",
+        + f"; load average {os.getloadavg()[0]:.1f})",
         flush=True,
     )
     return rtf
@@ -237,9 +242,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--replay",
-        choices=("on", "off", "both"),
+        choices=("on", "off", "both", "faults", "all"),
         default="on",
-        help="the node's periodic_replay (docs/solver.md); both: runs with and without, interleaved",
+        help="the node's periodic_replay (docs/solver.md); both: runs with and without, interleaved; "
+        "faults: with periodic_replay_faults; all: on, faults and off, interleaved",
     )
     args = parser.parse_args(argv)
     faults = args.faults.resolve() if args.faults else None
@@ -253,11 +259,11 @@ def main(argv: list[str] | None = None) -> int:
             f"node end to end (simulate, publish default streams, record MCAP); median of {args.runs} runs"
             + (f"; model {args.model}" if args.model else "")
         )
-        replays = {"on": [True], "off": [False], "both": [True, False]}[args.replay]
+        replays = {"both": ["on", "off"], "all": ["on", "faults", "off"]}.get(args.replay, [args.replay])
         variants = [(f, r) for f in ([None, faults] if faults else [None]) for r in replays]
-        results: dict[tuple[float, Path | None, bool], float] = {}
+        results: dict[tuple[float, Path | None, str], float] = {}
         for speed in args.speeds:
-            runs: dict[tuple[Path | None, bool], list[float]] = {v: [] for v in variants}
+            runs: dict[tuple[Path | None, str], list[float]] = {v: [] for v in variants}
             for _ in range(args.runs):  # interleaved: the machine's load falls on both alike
                 for v in variants:
                     runs[v].append(run_once(speed, args.warmup_s, args.measure_s, workdir, args.model, *v))
@@ -269,7 +275,7 @@ def main(argv: list[str] | None = None) -> int:
                 rtf = results[(speed, None, r)]
                 goal = GOALS.get((args.model, speed))
                 verdict = "" if goal is None else f">= {goal:g}  {'met' if rtf >= goal else 'NOT met'}"
-                print(f"{speed:9.0f}  {rtf:12.2f}  {verdict}  (periodic_replay {'on' if r else 'off'})")
+                print(f"{speed:9.0f}  {rtf:12.2f}  {verdict}  (periodic_replay {r})")
                 if faults:
                     rf = results[(speed, faults, r)]
                     ratio = f"x{rf / rtf:.3f} of the run without"

@@ -194,15 +194,19 @@ class Simulator(SystemCache, Stepping, Stream):
         faults.md): its axial force follows the instantaneous mesh force. Default True (the node,
         ``record``, ``dataset``); False: such an effect keeps the static mesh force ``F0`` (the
         calibration's model runs, which supply the orders from their own fixed-point pass).
-    periodic_replay : bool
+    periodic_replay : bool or "faults"
         At a constant set point without effects, once the state at the end of a chunk equals the state
         a whole number of forcing periods earlier (each part within ``REPLAY_TOLERANCE`` = 1e-10 of its
         norm), serve the following steps' channel rows from that period through the same decimation
         instead of integrating, until the set point, the effects or the dt rule's setting changes;
         integration then resumes from the state integration would hold (docs/solver.md, "Periodic
         replay at steady state"; simulator_replay.py). Chaotic or quasi-periodic motion never engages
-        it, and until it engages the stream is bit for bit the one without it. Default False (the
-        calibration, the sweeps, ``record``); the ROS node turns it on (parameter ``periodic_replay``).
+        it. The angles are taken modulo the forcing period, which moves the stream by the integration's
+        sensitivity to round-off. ``"faults"`` also admits effects locked to a shaft's angle at a
+        constant severity (a damaged tooth, an eccentric wheel, an unbalance, a shaft misalignment):
+        the faulted stream then differs from the plain integration's by that sensitivity, up to 0.1 of
+        its peak at 3000 rpm (docs/solver.md). Default False (the calibration, the sweeps, ``record``);
+        the ROS node turns it on (parameters ``periodic_replay``, ``periodic_replay_faults``).
     system_builder : callable, optional
         ``(cfg, temperature_c) -> AssembledSystem``; default ``GearRotorSystem.from_config``.
     """
@@ -231,7 +235,7 @@ class Simulator(SystemCache, Stepping, Stream):
         event_average: bool = True,
         average_table_jumps: bool = False,
         streamed_misalignment: bool = True,
-        periodic_replay: bool = False,
+        periodic_replay: bool | str = False,
     ) -> None:
         _check_speed(speed_rpm)
         cut_ok = modal_cutoff_hz is None or modal_cutoff_hz == "auto"
@@ -297,9 +301,10 @@ class Simulator(SystemCache, Stepping, Stream):
         if not isinstance(average_table_jumps, bool | np.bool_):
             raise ValueError(f"average_table_jumps: {average_table_jumps!r} must be True or False")
         self.average_table_jumps = bool(average_table_jumps)
-        if not isinstance(periodic_replay, bool | np.bool_):
-            raise ValueError(f"periodic_replay: {periodic_replay!r} must be True or False")
-        self._replay = PeriodicReplay() if periodic_replay else None
+        if not (isinstance(periodic_replay, bool | np.bool_) or periodic_replay == "faults"):
+            raise ValueError(f"periodic_replay: {periodic_replay!r} must be True, False or 'faults'")
+        rep = PeriodicReplay(faults=periodic_replay == "faults") if periodic_replay else None
+        self._replay = rep
         self.one_setting = bool(one_setting) and contact_loss_rate_hz is not None
         self._loss_mode = self.one_setting  # the dt rule's contact-loss setting is active
         self._separated = False  # the teeth separated in the current dt-rule window

@@ -1,18 +1,25 @@
 """Periodic replay of a settled stream: ``Simulator(periodic_replay=True)`` (docs/solver.md, "Periodic
 replay at steady state").
 
-At a constant set point without effects the forcing of Eq 39 (mesh stiffness, friction, static
-transmission error) is periodic in the input-shaft angle: every mesh's phase returns after a whole
-number of its mesh periods. Once the solver's state at the end of an integrated chunk equals its state
-at the end of an earlier chunk a whole number of forcing periods before (each part of the state within
-``REPLAY_TOLERANCE`` of its own norm, the contact states equal), every later step repeats the steps in
-between: their channel rows (what the kernel gave, before the decimation) are fed to the same
-decimator instead of integrating, until the set point, the effects or the dt rule's setting changes.
-The state at the current instant is then restored from the stored one (the stepper's modal state
-included) and integrated forward over the part of the period already served, so integration resumes
-exactly as it would from that state. Chaotic and quasi-periodic motion never matches and is
-integrated as without the option; until it engages the stream is bit for bit the one without it (the
-chunks are not changed: only the ends the caller and the dt rule make are compared).
+At a constant set point the forcing of Eq 39 (mesh stiffness, friction, static transmission error)
+is periodic in the input-shaft angle: every mesh's phase returns after a whole number of its mesh
+periods; an effect locked to a shaft's angle at a constant severity (a damaged tooth, an eccentric
+wheel, an unbalance, a shaft misalignment; simulator_replay_effects.py) repeats after whole
+revolutions of its shaft, so the forcing period holds those too. Once the solver's state at the end
+of an integrated chunk equals its state at the end of an earlier chunk a whole number of forcing
+periods before (each part of the state within ``REPLAY_TOLERANCE`` of its own norm, the contact
+states equal), every later step repeats the steps in between: their channel rows (what the kernel
+gave, before the decimation) are fed to the same decimator instead of integrating, until the set
+point, the effects or the dt rule's setting changes. The state at the current instant is then
+restored from the stored one (the stepper's modal state included) and integrated forward over the
+part of the period already served, so integration resumes exactly as it would from that state.
+Chaotic and quasi-periodic motion never matches and is integrated as without the option (the chunks
+are not changed: only the ends the caller and the dt rule make are compared). The angles are taken
+modulo the forcing period (:meth:`PeriodicReplay.begin`), which moves the stream by the integration's
+sensitivity to round-off. Effects are admitted only under ``faults`` (``Simulator(periodic_replay=
+"faults")``): the node's faulted stream is held to the plain integration, which the calibration
+simulates, and that is not periodic to round-off where a step lands exactly on a mesh-table jump
+(docs/solver.md, "Periodic replay at steady state", "Faults").
 
 :class:`PeriodicReplay` holds the history and the stored period; :class:`~gear_rotor_sim.simulator.
 Simulator` calls it from ``Stepping._run_steps`` (part of its bases, holding no state of its own).
@@ -23,6 +30,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from gear_rotor_sim.simulator_replay_effects import periodic_effect_shafts
 
 if TYPE_CHECKING:
     from gear_rotor_sim.simulator import Simulator
@@ -44,9 +53,13 @@ _PHASE_TOL_CYCLES = 1e-9
 _STEPPER_ARRAYS = ("zr", "zi", "beta_prev", "beta_act", "ypred", "contact")
 
 
-def forcing_period_outputs(system: AssembledSystem, speed_rpm: float, output_rate_hz: float) -> int | None:
+def forcing_period_outputs(
+    system: AssembledSystem, speed_rpm: float, output_rate_hz: float, shafts: tuple[int, ...] = ()
+) -> int | None:
     """Smallest number of output samples after which every mesh's phase has advanced by whole mesh
-    cycles at a constant ``speed_rpm`` (the period of the healthy forcing on the output grid).
+    cycles at a constant ``speed_rpm`` (the period of the healthy forcing on the output grid) and every
+    shaft of ``shafts`` by whole revolutions (the effects locked to those shafts' angles,
+    simulator_replay_effects.py).
 
     Returns None without a mesh, at standstill, or when no such number up to
     ``REPLAY_MAX_FORCING_OUTPUTS`` exists (within ``_PHASE_TOL_CYCLES`` per period).
@@ -54,7 +67,10 @@ def forcing_period_outputs(system: AssembledSystem, speed_rpm: float, output_rat
     if not system.meshes or not (speed_rpm > 0 and output_rate_hz > 0):
         return None
     ratios = np.asarray(system.shaft_speed_ratios, dtype=float)
-    cyc = np.array([m.pinion_teeth * abs(float(ratios[m.pinion_shaft])) for m in system.meshes])
+    cyc = np.array(
+        [m.pinion_teeth * abs(float(ratios[m.pinion_shaft])) for m in system.meshes]
+        + [abs(float(ratios[s])) for s in shafts]
+    )
     per_out = cyc * (speed_rpm / 60.0) / output_rate_hz  # mesh cycles per output sample
     g = np.arange(1, REPLAY_MAX_FORCING_OUTPUTS + 1, dtype=float)[:, None]
     x = g * per_out[None, :]
@@ -125,12 +141,16 @@ class PeriodicReplay:
     engaged_at_s : float or None
         Integration time at which it last engaged; ``constant_since_s`` when the set point became
         eligible (the history's start).
+    faults : bool
+        Whether effects locked to a shaft's angle are admitted (``Simulator(periodic_replay="faults")``);
+        by default a set point with effects is integrated.
     mismatch : float
         The state mismatch of the two chunk ends that engaged it.
     """
 
-    def __init__(self, tolerance: float = REPLAY_TOLERANCE) -> None:
+    def __init__(self, tolerance: float = REPLAY_TOLERANCE, faults: bool = False) -> None:
         self.tolerance = float(tolerance)
+        self.faults = bool(faults)
         self.active = False
         self.period_steps = 0
         self.engaged_at_s: float | None = None
@@ -139,11 +159,12 @@ class PeriodicReplay:
         self.n_engaged = 0
         #: False: never serve (the angles stay periodic): the integrated reference of the replay
         self.serving = True
-        self._period_at: tuple = (None, None, None, None)  # (system, speed, rate, forcing period)
+        self._period_at: tuple = (None,) * 5  # (system, speed, rate, effect shafts, forcing period)
         self._reset()
 
     def _reset(self) -> None:
         self._key: tuple | None = None
+        self._effects: Any = None  # the effects the key names (held: their ids stay theirs)
         self._stepper: Any = None
         self._g_raw = 0
         self._max_raw = 0
@@ -160,21 +181,33 @@ class PeriodicReplay:
     def key_of(self, sim: Simulator) -> tuple | None:
         """What must stay the same for the stream to repeat (None: not eligible now).
 
-        Eligible: no effects (their forces may follow a time law), speed and temperature at their
-        targets (no ramp running), a forcing period on the output grid. The key holds the dt rule's
-        setting (decimation factor, events located, exact map), the quantised speed and the segment
-        of the raw grid.
+        Eligible: speed and temperature at their targets (no ramp running), no effects or, under
+        ``faults``, only effects locked to shaft angles at a constant severity
+        (:func:`periodic_effect_shafts`: a damaged tooth, an eccentric wheel, a mass unbalance, a shaft
+        misalignment, past their onset and growth; not the streamed gear misalignment), a forcing
+        period on the output grid (whole mesh cycles and whole revolutions of those effects' shafts).
+        The key holds the forcing period, the dt rule's setting (decimation factor, events located,
+        exact map), the quantised speed, the segment of the raw grid, the effects' shafts and the
+        effects themselves (by identity: a new list, even an equal one, starts a new history).
         """
-        if sim._run_effects or sim._mis.active:
+        if sim._mis.active:
             return None
         t = sim._raw_time
         if float(sim._speed.value(t)) != sim._speed.target or float(sim._temp.value(t)) != sim._temp.target:
             return None
         system = sim._stepper.system
-        at = (system, sim._speed.target, sim.output_rate_hz)
-        if self._period_at[0] is not system or self._period_at[1:3] != at[1:]:
+        shafts: tuple[int, ...] | None = ()
+        if sim._run_effects:
+            if not self.faults:
+                return None
+            # the chunk's effect inputs start one step before its first new step
+            shafts = periodic_effect_shafts(sim._run_effects, system, t - sim.dt)
+            if shafts is None:
+                return None
+        at = (system, sim._speed.target, sim.output_rate_hz, shafts)
+        if self._period_at[0] is not system or self._period_at[1:4] != at[1:]:
             self._period_at = (*at, forcing_period_outputs(*at))
-        g = self._period_at[3]
+        g = self._period_at[4]
         if g is None:
             return None
         return (
@@ -188,6 +221,8 @@ class PeriodicReplay:
             sim._sys_key,
             sim._speed.target,
             sim._temp.target,
+            shafts,
+            tuple(id(e) for e in sim._run_effects),
         )
 
     # ------------------------------------------------------------------------------ integration
@@ -202,7 +237,10 @@ class PeriodicReplay:
         just after it), repeat bit for bit from one forcing period to the next. Without it the phase's
         round-off grows with the angle and flips such decisions now and then: at 20000 rpm a kick of
         1e-4 to 2e-3 of the state every few forcing periods (docs/solver.md, "Periodic replay at
-        steady state"), and the state never repeats to 1e-10.
+        steady state"), and the state never repeats to 1e-10. With faults the same flips move the
+        plain integration even at 3000 rpm (a step of the step grid exactly on the mesh table's jump at
+        phase 0 every 29 mesh periods: 1e-2 to 0.1 of the peak, or another orbit;
+        benchmarks/replay_switches.py), which is why faults are admitted only under ``faults``.
         """
         if key is None or key != self._key or sim._stepper is not self._stepper:
             self._reset()
@@ -210,6 +248,7 @@ class PeriodicReplay:
                 self.constant_since_s = None
                 return angle
             self._key = key
+            self._effects = sim._run_effects
             self._stepper = sim._stepper
             self._g_raw = key[0] * sim._k
             self._max_raw = int(REPLAY_MAX_LAG_S * sim.output_rate_hz) * sim._k
@@ -228,12 +267,9 @@ class PeriodicReplay:
     ) -> None:
         """Record an integrated chunk (raw steps ``raw0 + 1 ..``, the Simulator's state at its end) and
         engage when its end state matches an earlier end a whole number of forcing periods before."""
-        if key is None:
+        if key is None or not self.serving:  # serving off: the periodic angles only (a reference)
             return
-        n = ch.shape[0]
-        if not self.serving:  # integrate with the periodic angles only (a reference for the tests)
-            return
-        end = raw0 + n
+        end = raw0 + ch.shape[0]
         self._chunks.append((raw0 + 1, ch, states.copy()))
         snap = _snapshot(sim._stepper, sim._state)
         for m, old in reversed(self._ends):  # the shortest lag first

@@ -26,13 +26,15 @@ def _pair(rpm: float, channels: list[str] = CHANNELS) -> tuple[Simulator, Simula
     return on, off
 
 
-def _settle(on: Simulator, off: Simulator) -> tuple[list[np.ndarray], list[np.ndarray]]:
+def _settle(
+    on: Simulator, off: Simulator, chunk_s: float = CHUNK_S
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Advance both in the same chunks until the replay engages (at most MAX_SETTLE_S)."""
     a: list[np.ndarray] = []
     b: list[np.ndarray] = []
     while on.time_s < MAX_SETTLE_S:
-        a.append(on.advance(CHUNK_S).data)
-        b.append(off.advance(CHUNK_S).data)
+        a.append(on.advance(chunk_s).data)
+        b.append(off.advance(chunk_s).data)
         assert on.replay is not None
         if on.replay.active:
             return a, b

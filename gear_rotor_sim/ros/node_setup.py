@@ -69,6 +69,14 @@ class NodeModel:
     sim: Any
 
 
+def replay_setting(v: dict[str, Any]) -> bool | str:
+    """``Simulator(periodic_replay=...)`` from the parameters ``periodic_replay`` and
+    ``periodic_replay_faults`` (docs/solver.md, "Periodic replay at steady state")."""
+    if not v["periodic_replay"]:
+        return False
+    return "faults" if v["periodic_replay_faults"] else True
+
+
 def build_model(v: dict[str, Any], streams: list[StreamSpec]) -> NodeModel:
     """Load ``model`` (with ``bearing_type``) and ``faults_file``, check the requested channels and
     build the simulator at the initial operating point.
@@ -119,7 +127,7 @@ def build_model(v: dict[str, Any], streams: list[StreamSpec]) -> NodeModel:
             steps_per_mesh=int(v["steps_per_mesh"]),
             contact_loss_rate_hz=float(v["contact_loss_rate_hz"]) or None,
             event_average=bool(v["event_average"]),
-            periodic_replay=bool(v["periodic_replay"]),
+            periodic_replay=replay_setting(v),
             speed_ramp_rpm_per_s=float(v["speed_ramp_rpm_per_s"]),
             temperature_ramp_c_per_s=float(v["temperature_ramp_c_per_s"]),
             effects=faults.effects(),

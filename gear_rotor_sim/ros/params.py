@@ -261,6 +261,14 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "periods (to 1e-10), stream the stored period instead of integrating until a set point or the "
         "faults change (Simulator(periodic_replay=True), docs/solver.md, Periodic replay at steady state).",
     ),
+    ParamSpec(
+        "periodic_replay_faults",
+        False,
+        "With periodic_replay: also replay faults locked to a shaft's angle at a constant severity (tooth "
+        "damage, eccentricity, unbalance, shaft misalignment; Simulator(periodic_replay='faults')). The "
+        "faulted stream then differs from the integrator's, which calibrate simulates, by the "
+        "integration's sensitivity to round-off: up to 0.1 of the peak at 3000 rpm (docs/solver.md).",
+    ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
         "publish.bearings",
