@@ -47,6 +47,7 @@ from gear_rotor_sim.calibration.residual import (
     ModelFeatures,
     Score,
 )
+from gear_rotor_sim.calibration.tooth_band_shape import band_shape_note, shape_tooth
 from gear_rotor_sim.faults import (
     BearingDefect,
     Effect,
@@ -319,8 +320,10 @@ class Refinement:
         )
 
     def _tooth_notes(self, e: ToothDamage, at: str) -> None:
-        """Notes on the nuisance factors of the last :meth:`_tooth_features` (path, scatter)."""
+        """Notes on the nuisance factors of the last :meth:`_tooth_features` (path, scatter, shape)."""
         self._path_note(e, at)
+        if (note := band_shape_note(e.label, at, getattr(self, "_band_shape", None))) is not None:
+            self.notes.append(note)
         if self._n_scatter:
             self.notes.append(
                 f"{e.label} at {at}: the revolution-to-revolution scatter of its response in the "
@@ -346,4 +349,5 @@ class Refinement:
         self._n_scatter = 0
         if self.rattle_rules and scatter_applies(self.cmp, self.base_contact_loss):
             f, self._n_scatter = self._tooth_scatter(f, raw - self._raw(tuple(pre)))
-        return f
+        # in contact: the higher mesh harmonics' sidebands a shape nuisance (tooth_band_shape.py, Sec. 8.63)
+        return shape_tooth(self, f, e, pre) if mask is None else f

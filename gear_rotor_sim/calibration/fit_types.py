@@ -78,6 +78,10 @@ class FitSettings:
     #: comb and its sideband energy ratios agree, where the record's own mesh set is in the baseline
     #: (``baseline_mesh_inertia.inertia_for_dte_depth``, Sec. 8.41: 4500 rpm gear tooth -40 % -> -5 %)
     mesh_inertia_from_comb: bool = False
+    #: in contact: a damaged tooth's sidebands of the mesh harmonics >= 2 on its wheel's shaft taken as the
+    #: model's times one fitted factor per harmonic in [0, 1] (the pulse's shape, not its depth;
+    #: ``tooth_band_shape.py``, Sec. 8.63: the held-out x1.6 teeth); False: as in session 21
+    tooth_band_shape: bool = True
 
 
 @dataclass

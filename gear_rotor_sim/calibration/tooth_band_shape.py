@@ -20,8 +20,8 @@ current model, in the sidebands ``h z +- j`` (``1 <= |j| <= sidebands``) of each
 record's balanced chi^2. The bound: a step in the share is the most abrupt a pair can take its load, so a
 real tooth's pulse has no more higher-harmonic content than the step law's. The low orders, the first
 harmonic's sidebands, the carriers, the envelope and the channel means keep the full run's. The factors
-are a nuisance of the verified tooth (reported in the notes, counted in its BIC parameters), never a
-finding.
+are a nuisance of the verified tooth (reported in the notes; not counted in its BIC parameters: 2 ln N = 14
+against the Delta BIC of 1e4-1e5 of the rows it moves), never a finding.
 """
 
 from __future__ import annotations
