@@ -204,7 +204,7 @@ class Simulator(SystemCache, Stepping, Stream):
         it. The angles are taken modulo the forcing period, which moves the stream by the integration's
         sensitivity to round-off. ``"faults"`` also admits effects locked to a shaft's angle at a
         constant severity (a damaged tooth, an eccentric wheel, an unbalance, a shaft misalignment):
-        the faulted stream then differs from the plain integration's by that sensitivity, up to 0.1 of
+        the faulted stream then differs from the plain integration's by that sensitivity, up to 0.15 of
         its peak at 3000 rpm (docs/solver.md). Default False (the calibration, the sweeps, ``record``);
         the ROS node turns it on (parameters ``periodic_replay``, ``periodic_replay_faults``).
     system_builder : callable, optional

@@ -267,7 +267,7 @@ SIMULATOR_PARAMETERS: tuple[ParamSpec, ...] = (
         "With periodic_replay: also replay faults locked to a shaft's angle at a constant severity (tooth "
         "damage, eccentricity, unbalance, shaft misalignment; Simulator(periodic_replay='faults')). The "
         "faulted stream then differs from the integrator's, which calibrate simulates, by the "
-        "integration's sensitivity to round-off: up to 0.1 of the peak at 3000 rpm (docs/solver.md).",
+        "integration's sensitivity to round-off: up to 0.15 of the peak at 3000 rpm (docs/solver.md).",
     ),
     ParamSpec("publish.dte", True, "Publish the DTE stream /gear_rotor/dte (dte, mesh_force)."),
     ParamSpec(
