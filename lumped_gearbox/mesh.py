@@ -24,6 +24,16 @@ RELIEF_CYCLES = 0.2  # length of the entry/exit ramps, mesh cycles
 
 
 @njit(cache=True, inline="always")
+def deadzone(d: float, b: float) -> tuple[float, float]:
+    """Backlash deadzone: the mesh deflection beyond the half clearance ``b`` and whether in contact."""
+    if d > b:
+        return d - b, 1.0
+    if d < -b:
+        return d + b, 1.0
+    return 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
 def pair_shape(s: float, eps: float, relief: float) -> float:
     """Relative stiffness of one pair ``s`` cycles after it entered (0 outside ``[0, eps)``)."""
     if s < 0.0 or s >= eps:

@@ -36,6 +36,7 @@ import numpy as np
 from numba import njit
 
 from lumped_gearbox.loose_housing import loose_relief
+from lumped_gearbox.mesh import deadzone as _deadzone
 from lumped_gearbox.mesh import pair_shape
 from lumped_gearbox.pitch import pitch_mesh_force
 from lumped_gearbox.shaft_faults import cardan_lag, crack_force
@@ -102,15 +103,6 @@ def _mesh_state(t, geo, kk, fault, tooth_p, tooth_g, ex):
             kw += ki * abs(s / eps - sp) / wmax
     wear = fault[F_WEAR] * kw / k if k > 0.0 else 0.0
     return k, wear, u
-
-
-@njit(cache=True, inline="always")
-def _deadzone(d, b):
-    if d > b:
-        return d - b, 1.0
-    if d < -b:
-        return d + b, 1.0
-    return 0.0, 0.0
 
 
 @njit(cache=True, inline="always")

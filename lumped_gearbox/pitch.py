@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from lumped_gearbox.faults import check_range
-from lumped_gearbox.mesh import pair_shape
+from lumped_gearbox.mesh import deadzone, pair_shape
 
 #: allowed ranges, um on the reference circle (quality 5-7 of the paper's wheels: f_pt 6-12 um)
 F_PT_UM_MAX = 30.0
@@ -106,15 +106,6 @@ class PitchErrors:
         return out
 
 
-@njit(cache=True, inline="always")
-def _dz(d, b):
-    if d > b:
-        return d - b, 1.0
-    if d < -b:
-        return d + b, 1.0
-    return 0.0, 0.0
-
-
 @njit(cache=True)
 def pitch_mesh_force(u, dm, b, gam, face, n_slices, eps, relief, k_pair, tooth_p, tooth_g, pitch):
     """Elastic mesh force and stiffness-weighted contact fraction with per-pair flank errors.
@@ -139,7 +130,7 @@ def pitch_mesh_force(u, dm, b, gam, face, n_slices, eps, relief, k_pair, tooth_p
             k += ki
             for j in range(ns):
                 xi = (j / (ns - 1.0) - 0.5) * face if ns > 1 else 0.0
-                f, c = _dz(d + gam * xi, b)
+                f, c = deadzone(d + gam * xi, b)
                 fel += ki * f / ns
                 fc += ki * c / ns
     return fel, (fc / k if k > 0.0 else 0.0)
