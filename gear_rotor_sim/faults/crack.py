@@ -60,6 +60,33 @@ breathing on the instantaneous deflection makes where a lateral mode lies near t
 opening stays the static one (load dominance) and the dynamic share is not made self-consistent (first
 order in ``dk``).
 
+Loss reference (``loss_reference``). ``shaft`` (default): ``stiffness_loss`` is the drop of the shaft's own
+bending stiffness ``k_s`` at the node, as above. ``support``: it is the drop of the node's whole lateral
+support stiffness ``k_L`` (the shaft in series with its bearings, the lumped spring of a Jeffcott rotor on
+flexible supports; 8.92e7 N/m at the paper's pinion seat against ``k_s`` = 1.308e8 N/m), the convention of a
+lumped rotor that softens its one lateral spring by the crack (``lumped_gearbox/shaft_faults.py``: its
+``stiffness_loss`` is a fraction of the shaft-and-bearing spring). The crack is still the shaft's: the
+shaft's loss ``l_s`` is the one that gives the node the same extra static compliance along ``d0`` while
+open, ``b l_s / (1 - b l_s) = r l / (1 - l)`` with ``r = k_s / k_L`` and ``b = k_s d^T B d`` (``d`` the unit
+vector along ``d0``; :func:`shaft_loss`): ``l_s`` = 1.63 ``l`` for shallow cracks on the paper gearbox, which
+is the 1.65 between the two models' responses to one loss when their transfers are otherwise equal
+(``benchmarks/crack_transfer.py``; docs/history/calibration_sessions.md Sec. 8.64).
+
+Bearing tilt damping (``bearing_tilt_damping``). The paper's Table 5 gives every bearing a tilt damping
+``c_theta`` = 1.00e3 (printed in N s/m, the translational damping's unit and value), 0.048 s against its tilt
+stiffness 2.08e4 N m/rad: above about 3 Hz the bearings hold the shaft's ends against tilting, so the shaft
+bends nearly as a clamped beam at the crack's orders, and its response to the crack's internal load is
+0.52 / 0.40 / 0.37 of the same model's without that damping at 1x / 2x / 3x of 3000 rpm (on every channel,
+along and across the line of action; ``benchmarks/crack_transfer.py``). A rotor whose bearings carry no tilt
+damping (a lumped or pinned-end model; a ball bearing's physical tilt damping is of the order
+``c_r w^2`` ~ 0.1 N m s/rad) answers the crack with the quasi-static bending. With
+``bearing_tilt_damping=False`` the crack's load carries, besides ``P^T f``, the moments ``C_t q_c'`` at the
+bearings' tilt DOFs, ``q_c`` the linear response (mean mesh stiffness) of the model without the bearings'
+tilt damping ``C_t`` to the crack's load, line by line of its shaft orders and mesh harmonics
+(:meth:`ShaftCrack.tilt_compensation`): by superposition the crack's own response is then the one of the model
+without ``C_t`` (exact for the linear model; the rest of the machine keeps its damping). It is the second
+model form the calibration offers the crack in (``calibration/candidates_crack.py``).
+
 What the linearisation leaves out: the opening and closing by the vibration itself (beyond load
 dominance), the dynamic share's own feedback (the crack's response changes ``d_dyn``), the crack's
 effect on the eigenfrequencies (they drop by about ``loss / 2`` of the shaft's share while open), any
@@ -78,6 +105,9 @@ import numpy as np
 from gear_rotor_sim.faults.base import Effect, ParameterSpec, node_xy_columns, shaft_index
 
 BREATHING_LAWS = ("switching", "cosine")
+LOSS_REFERENCES = ("shaft", "support")
+#: shaft orders of the crack's load carried by the tilt compensation (the switching law's lines fall as 1/k^2)
+TILT_ORDERS = 8
 
 
 def _bending_dofs(node0: int) -> list[int]:
@@ -118,6 +148,20 @@ def deflection_map(system: Any, node0: int) -> np.ndarray:
     return P
 
 
+def _node_stiffness(K: np.ndarray, system: Any, node0: int, held: set[int]) -> np.ndarray:
+    """(2, 2) inverse of the x-y static compliance of ``node0`` under ``K`` restricted to the bending DOFs of
+    its shaft less ``held``."""
+    shaft = shaft_index(system, node0)
+    nodes = [int(n) for n in np.flatnonzero(np.asarray(system.shaft_of_node) == shaft)]
+    dofs = [d for n in nodes for d in _bending_dofs(n) if d not in held]
+    pos = {d: i for i, d in enumerate(dofs)}
+    rhs = np.zeros((len(dofs), 2))
+    rhs[pos[6 * node0], 0] = 1.0
+    rhs[pos[6 * node0 + 1], 1] = 1.0
+    sol = np.linalg.solve(K[np.ix_(dofs, dofs)], rhs)
+    return np.linalg.inv(sol[[pos[6 * node0], pos[6 * node0 + 1]], :])
+
+
 def shaft_stiffness(system: Any, node0: int) -> np.ndarray:
     """(2, 2) lateral bending stiffness of the shaft elements alone at ``node0``, pinned at the shaft's
     bearing nodes (their x and y held, rotations free; a single bearing also holds its rotations): the
@@ -127,22 +171,13 @@ def shaft_stiffness(system: Any, node0: int) -> np.ndarray:
     for b in system.bearings:
         idx = np.arange(6 * b.node0, 6 * b.node0 + 6)
         K[np.ix_(idx, idx)] -= b.stiffness
-    shaft = shaft_index(system, node0)
-    nodes = [int(n) for n in np.flatnonzero(np.asarray(system.shaft_of_node) == shaft)]
     held = set()
     weights = bearing_line_weights(system, node0)
     for nb in weights:
         held.update((6 * nb, 6 * nb + 1))
         if len(weights) == 1:
             held.update((6 * nb + 3, 6 * nb + 4))
-    dofs = [d for n in nodes for d in _bending_dofs(n) if d not in held]
-    pos = {d: i for i, d in enumerate(dofs)}
-    rhs = np.zeros((len(dofs), 2))
-    rhs[pos[6 * node0], 0] = 1.0
-    rhs[pos[6 * node0 + 1], 1] = 1.0
-    sol = np.linalg.solve(K[np.ix_(dofs, dofs)], rhs)
-    compliance = sol[[pos[6 * node0], pos[6 * node0 + 1]], :]
-    return np.linalg.inv(compliance)
+    return _node_stiffness(K, system, node0, held)
 
 
 def static_terms(system: Any, node0: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -156,7 +191,7 @@ def static_terms(system: Any, node0: int) -> tuple[np.ndarray, np.ndarray, float
     from gear_rotor_sim.system import static_solution
 
     with warnings.catch_warnings():  # an unloaded mesh: the engaged solution is still the deflection
-        warnings.simplefilter("ignore")
+        warnings.filterwarnings("ignore", message=r"mesh \d+: static delta .* below the half backlash")
         q0 = static_solution(system)
     P = deflection_map(system, node0)
     d0 = P @ q0
@@ -170,6 +205,43 @@ def static_terms(system: Any, node0: int) -> tuple[np.ndarray, np.ndarray, float
     B = P @ q
     ks = shaft_stiffness(system, node0)
     return d0, B, float(0.5 * (ks[0, 0] + ks[1, 1]))
+
+
+def support_stiffness(system: Any, node0: int) -> float:
+    """Lateral static stiffness of ``node0`` on its shaft and the shaft's bearings (no mesh), N/m: the mean of
+    the inverse compliance's two diagonal terms (the node's lumped spring of a Jeffcott rotor on flexible
+    supports)."""
+    ks = _node_stiffness(np.asarray(system.K, dtype=float), system, node0, set())
+    return float(0.5 * (ks[0, 0] + ks[1, 1]))
+
+
+def shaft_loss(loss: float, ratio: float, b: float) -> float:
+    """The shaft's loss ``l_s`` whose extra static compliance at the node equals that of a drop ``loss`` of
+    the node's support stiffness: ``b l_s / (1 - b l_s) = ratio loss / (1 - loss)`` (module docstring;
+    ``ratio = k_s / k_L``, ``b = k_s d^T B d``)."""
+    if loss <= 0.0:
+        return 0.0
+    x = ratio * loss / max(1.0 - loss, 1e-9)
+    return x / (b * (1.0 + x))
+
+
+def support_loss(loss_s: float, ratio: float, b: float) -> float:
+    """Inverse of :func:`shaft_loss`: the support loss of a shaft loss ``loss_s``."""
+    if loss_s <= 0.0:
+        return 0.0
+    x = b * loss_s / max(1.0 - b * loss_s, 1e-9)
+    return x / (ratio + x)
+
+
+def tilt_damping_terms(system: Any) -> tuple[list[int], np.ndarray]:
+    """Global tilt DOFs (theta_x, theta_y) of the bearing nodes with tilt damping, and that damping."""
+    dofs, c = [], []
+    for b in system.bearings:
+        for d in (3, 4):
+            if b.damping[d, d] != 0.0:
+                dofs.append(6 * b.node0 + d)
+                c.append(float(b.damping[d, d]))
+    return dofs, np.asarray(c)
 
 
 def breathing(law: str, psi: np.ndarray, d0: np.ndarray) -> np.ndarray:
@@ -203,6 +275,12 @@ class ShaftCrack(Effect):
         from its healthy model run (``calibration/candidates_crack.py``).
     mesh : int
         1-based mesh whose phase ``mesh_deflection`` follows.
+    loss_reference : str
+        ``shaft`` (default): ``stiffness_loss`` is a fraction of the shaft's bending stiffness at the node;
+        ``support``: of the node's stiffness on its shaft and bearings (module docstring).
+    bearing_tilt_damping : bool
+        True (default): the crack's response feels the bearings' tilt damping of the model; False: the
+        moments that remove it from the crack's own response are added (module docstring).
     """
 
     node: int = 5
@@ -211,6 +289,8 @@ class ShaftCrack(Effect):
     breathing: str = "switching"
     mesh_deflection: tuple[complex, ...] = ()
     mesh: int = 1
+    loss_reference: str = "shaft"
+    bearing_tilt_damping: bool = True
     _cache: dict = field(default_factory=dict, compare=False, repr=False)
     name: ClassVar[str] = "shaft_crack"
     signature: ClassVar[str] = (
@@ -227,6 +307,8 @@ class ShaftCrack(Effect):
     def __post_init__(self) -> None:
         if self.breathing not in BREATHING_LAWS:
             raise ValueError(f"breathing: {self.breathing!r} is not one of {list(BREATHING_LAWS)}")
+        if self.loss_reference not in LOSS_REFERENCES:
+            raise ValueError(f"loss_reference: {self.loss_reference!r} is not one of {list(LOSS_REFERENCES)}")
 
     @property
     def label(self) -> str:
@@ -243,33 +325,141 @@ class ShaftCrack(Effect):
             self._cache[key] = hit
         return hit[1]
 
+    def reference_terms(self, system: Any) -> tuple[float, float]:
+        """``(r, b)`` of :func:`shaft_loss`: ``k_s / k_L`` and ``k_s d^T B d`` at the node, cached."""
+        key = (id(system), self.node, "reference")
+        hit = self._cache.get(key)
+        if hit is None or hit[0] is not system:
+            d0, B, ks = self.terms(system)
+            d = d0 / max(float(np.hypot(d0[0], d0[1])), 1e-30)
+            hit = (system, (ks / support_stiffness(system, self.node - 1), float(ks * d @ B @ d)))
+            self._cache[key] = hit
+        return hit[1]
+
+    def shaft_stiffness_loss(self, system: Any) -> float:
+        """``l_s``: the drop of the shaft's bending stiffness at the node, a fraction (``loss_reference``)."""
+        if self.loss_reference == "shaft":
+            return float(self.stiffness_loss)
+        return shaft_loss(float(self.stiffness_loss), *self.reference_terms(system))
+
     def external_forces(self, system: Any) -> np.ndarray | None:
         """``P^T``: the force ``f`` at the node and ``-w_b f`` at the shaft's bearing nodes (the bearing
         line's weights), a self-equilibrated pair: the crack is internal to the shaft, so it moves no
-        static load into the bearings (a force at the node alone would add ``f`` to their reactions)."""
+        static load into the bearings (a force at the node alone would have added ``f`` to their reactions).
+        Without the bearings' tilt damping, one more column per damped bearing tilt DOF."""
         if self.stiffness_loss == 0.0:
             return None
-        return deflection_map(system, self.node - 1).T
+        cols = deflection_map(system, self.node - 1).T
+        if self.bearing_tilt_damping:
+            return cols
+        dofs, _ = tilt_damping_terms(system)
+        extra = np.zeros((system.ndof, len(dofs)))
+        extra[dofs, np.arange(len(dofs))] = 1.0
+        return np.hstack([cols, extra])
+
+    def crack_load(
+        self, system: Any, psi: np.ndarray, dyn: tuple[np.ndarray, np.ndarray] | None
+    ) -> np.ndarray:
+        """The crack's load ``f`` (..., 2) at mouth angles ``psi`` with the dynamic deflection ``dyn``."""
+        d0, B, ks = self.terms(system)
+        c, s = np.cos(psi), np.sin(psi)
+        dk = self.shaft_stiffness_loss(system) * ks
+        beta = breathing(self.breathing, psi, d0)
+        nbn = B[0, 0] * c * c + (B[0, 1] + B[1, 0]) * c * s + B[1, 1] * s * s
+        a = beta * dk * (c * d0[0] + s * d0[1]) / (1.0 - beta * dk * nbn)
+        if dyn is not None:
+            a = a + beta * dk * (c * dyn[0] + s * dyn[1])
+        return np.stack([a * c, a * s], axis=-1)
 
     def force_amplitudes(self, ctx: Any) -> np.ndarray | None:
         if self.stiffness_loss == 0.0:
             return None
-        d0, B, ks = self.terms(ctx.system)
         psi = ctx.shaft_angle[:, shaft_index(ctx.system, self.node - 1)] + self.phase_rad
-        c, s = np.cos(psi), np.sin(psi)
-        dk = self.stiffness_loss * ks
-        beta = breathing(self.breathing, psi, d0)
-        nbn = B[0, 0] * c * c + (B[0, 1] + B[1, 0]) * c * s + B[1, 1] * s * s
-        a = beta * dk * (c * d0[0] + s * d0[1]) / (1.0 - beta * dk * nbn)
-        if self.mesh_deflection:
-            ddx, ddy = self.dynamic_deflection(ctx)
-            a = a + beta * dk * (c * ddx + s * ddy)
-        return np.column_stack([a * c, a * s])
+        dyn = self._deflection_at(self._mesh_phase(ctx)) if self.mesh_deflection else None
+        f = self.crack_load(ctx.system, psi, dyn)
+        if self.bearing_tilt_damping:
+            return f
+        return np.hstack([f, self.tilt_compensation(ctx)])
 
     def dynamic_deflection(self, ctx: Any) -> tuple[np.ndarray, np.ndarray]:
         """``d_dyn`` (x, y) at the steps of ``ctx`` from :attr:`mesh_deflection` and the mesh phase."""
-        coef = np.asarray(self.mesh_deflection, dtype=complex).reshape(2, -1)
+        return self._deflection_at(self._mesh_phase(ctx))
+
+    def _mesh_phase(self, ctx: Any) -> np.ndarray:
         phases = ctx.mesh_phases if getattr(ctx, "mesh_phases", None) is not None else ctx.mesh_phase[:, None]
-        u = phases[:, self.mesh - 1]
-        rot = np.exp(2j * np.pi * np.outer(u, np.arange(1, coef.shape[1] + 1)))
+        return phases[:, self.mesh - 1]
+
+    def _deflection_at(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        coef = np.asarray(self.mesh_deflection, dtype=complex).reshape(2, -1)
+        rot = np.exp(2j * np.pi * np.multiply.outer(u, np.arange(1, coef.shape[1] + 1)))
         return np.real(rot @ coef[0]), np.real(rot @ coef[1])
+
+    def tilt_compensation(self, ctx: Any) -> np.ndarray:
+        """Moments ``C_t q_c'`` (n, n_tilt) at the bearings' damped tilt DOFs (module docstring).
+
+        The crack's load is periodic in its mouth angle ``psi`` and (with a dynamic share) in the mesh phase
+        ``u``: sampled on a grid of one turn and one mesh period, its Fourier lines ``F_kh`` (``|k| <=
+        TILT_ORDERS``, ``|h|`` up to the dynamic share's harmonics) at the frequencies ``k psi' + 2 pi h u'``
+        (the chunk's mean speed) give ``q_c' = sum i w H_0(w) P^T F_kh e^{i(k psi + 2 pi h u)}``, ``H_0`` the
+        mean-stiffness linear model without ``C_t`` (``solver.linear_model``, gyroscopic at the input speed).
+        """
+        system = ctx.system
+        shaft = shaft_index(system, self.node - 1)
+        ratios = np.asarray(system.shaft_speed_ratios, float)
+        psi = ctx.shaft_angle[:, shaft] + self.phase_rad
+        w_shaft = float(np.mean(ctx.shaft_speed[:, shaft]))
+        w_input = w_shaft / float(ratios[shaft])
+        nh = len(self.mesh_deflection) // 2 if self.mesh_deflection else 0
+        w_mesh, u = 0.0, np.zeros(psi.size)
+        if nh:
+            m = system.meshes[self.mesh - 1]
+            w_mesh = 2.0 * np.pi * m.pinion_teeth * abs(float(ratios[m.pinion_shaft])) * w_input
+            u = self._mesh_phase(ctx)
+        ks_ = np.arange(-TILT_ORDERS, TILT_ORDERS + 1)
+        hs_ = np.arange(-nh, nh + 1)
+        gp, gu = 64, 4 * nh + 4
+        grid_psi = np.repeat((2.0 * np.pi * np.arange(gp) / gp)[:, None], gu, axis=1)
+        dyn = None
+        if nh:
+            dx, dy = self._deflection_at(np.arange(gu) / gu)
+            dyn = (np.broadcast_to(dx, (gp, gu)), np.broadcast_to(dy, (gp, gu)))
+        load = self.crack_load(system, grid_psi, dyn)  # (gp, gu, 2)
+        spec = np.fft.fft2(load, axes=(0, 1)) / (gp * gu)  # load = sum spec e^{i(k psi + 2 pi h u)}
+        F = spec[np.ix_(ks_ % gp, hs_ % gu)]  # (nk, nh, 2)
+        T = self._tilt_transfer(system, w_shaft, w_mesh, w_input, nh)  # (nk, nh, n_tilt, 2)
+        R = np.einsum("khtj,khj->kht", T, F)
+        ek = np.exp(1j * np.multiply.outer(psi, ks_))
+        eh = np.exp(2j * np.pi * np.multiply.outer(u, hs_))
+        return np.real(np.einsum("nk,nh,kht->nt", ek, eh, R))
+
+    def _tilt_transfer(
+        self, system: Any, w_shaft: float, w_mesh: float, w_input: float, nh: int
+    ) -> np.ndarray:
+        """``C_t i w H_0(w) P^T`` (nk, nh, n_tilt, 2) at the lines ``w = k w_shaft + h w_mesh``, cached."""
+        key = (id(system), self.node, "tilt", round(w_shaft, 6), round(w_mesh, 6), nh)
+        hit = self._cache.get(key)
+        if hit is not None and hit[0] is system:
+            return hit[1]
+        from gear_rotor_sim.solver.linear_model import LinearModel
+
+        lin = LinearModel(system)
+        dofs, ct = tilt_damping_terms(system)
+        rows = lin.pos[np.asarray(dofs, dtype=np.int64)]
+        D = lin.C.copy()
+        D[rows, rows] -= ct
+        D += w_input * lin.G
+        load = deflection_map(system, self.node - 1)[:, lin.free].T  # (n, 2)
+        ks_ = np.arange(-TILT_ORDERS, TILT_ORDERS + 1)
+        hs_ = np.arange(-nh, nh + 1)
+        out = np.zeros((ks_.size, hs_.size, len(dofs), 2), dtype=complex)
+        for i, k in enumerate(ks_):
+            for j, h in enumerate(hs_):
+                w = k * w_shaft + h * w_mesh
+                if w == 0.0:
+                    continue
+                q = np.linalg.solve(lin.K - w * w * lin.M + 1j * w * D, load)
+                out[i, j] = (1j * w * ct)[:, None] * q[rows]
+        if len(self._cache) > 8:
+            self._cache.clear()
+        self._cache[key] = (system, out)
+        return out
