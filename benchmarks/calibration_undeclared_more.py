@@ -56,6 +56,7 @@ BASES: dict[str, tuple[tuple[str, ...], int, float, float]] = {
     "healthy_8000": ((), 35, RATTLE_RPM, 25.0),  # healthy_8000rpm_25C
     "healthy_125C": ((), 36, CONTACT_RPM, 125.0),  # healthy_3000rpm_125C
     "tooth_pinion": ((F[0],), 11, CONTACT_RPM, 25.0),  # contact_tooth_damage_pinion
+    "tooth_gear": ((F[1],), 12, CONTACT_RPM, 25.0),  # contact_tooth_damage_gear
     "gear_ecc": ((F[3],), 14, CONTACT_RPM, 25.0),  # contact_gear_eccentricity
     "wear": ((F[6],), 17, CONTACT_RPM, 25.0),  # contact_tooth_wear
     "temp60": ((F[7],), 18, CONTACT_RPM, 25.0),  # contact_temperature_offset (+60 C)
@@ -80,8 +81,9 @@ EFFECTS: dict[str, tuple[dict[str, Any], tuple[str, ...]]] = {
 #: (effect, base) in the order a user's data most likely hold them: pitch errors and AC-coupled forces first
 PLAN: list[tuple[str, str]] = [
     *[("pitch6", b) for b in ("healthy", "healthy_8000", "healthy_125C", "tooth_pinion", "gear_ecc")],
-    *[("pitch6", b) for b in ("outer_race", "wear")],
+    *[("pitch6", b) for b in ("outer_race", "wear", "tooth_gear")],
     *[("pitch3", b) for b in ("healthy", "healthy_8000", "tooth_pinion", "gear_ecc")],
+    *[("pitch3", b) for b in ("healthy_125C", "tooth_gear", "wear")],
     *[
         ("acforce", b)
         for b in ("healthy", "healthy_125C", "temp60", "tooth_pinion", "gear_ecc", "outer_race")

@@ -51,6 +51,7 @@ from gear_rotor_sim.calibration.candidates_tooth import (
 )
 from gear_rotor_sim.calibration.features_dte_depth import DteDepthFit, depth_from_dte, dte_tooth_signature
 from gear_rotor_sim.calibration.features_sidebands import DEPTH_GRID
+from gear_rotor_sim.calibration.features_tooth_window import HALF_WIDTH, MIN_OUTSIDE_SHARE, named_tooth_window
 from gear_rotor_sim.faults import Effect, MeshStiffnessDamping, ToothDamage
 from gear_rotor_sim.faults.mesh_inertia import MeshInertia
 
@@ -113,23 +114,39 @@ def refine_depth_by_dte(
         return None
     f_shaft, teeth = shaft
     fs = cal.m.sample_rate_hz
-    meas, meas_se = dte_tooth_signature(cal.m.data[:, c], fs, f_shaft, teeth)
 
-    def grid_at(mesh: tuple[Effect, ...], top: float) -> dict[float, np.ndarray]:
+    def runs_at(mesh: tuple[Effect, ...]) -> dict[float, np.ndarray]:
         out = {}
         for d in DEPTH_GRID:
-            if d > top + 1e-9:
-                break
             effects = (*mesh, *accepted, dataclasses.replace(e, depth=d)) if d > 0 else (*mesh, *accepted)
-            x = cal.runner.outputs(cal._raw(effects))[:, c]
-            out[d] = dte_tooth_signature(x, fs, f_shaft, teeth, debias=False)[0]
+            out[d] = cal.runner.outputs(cal._raw(effects))[:, c]
         return out
 
     if mesh_set is None and cal.fit.mesh_inertia_from_comb:
         # the gear inertia at which the DTE comb and the sideband ratios agree (Sec. 8.41)
         mesh_set = inertia_for_dte_depth(cal, e, accepted)
     pre = (mesh_set,) if mesh_set is not None else ()
-    fit = depth_from_dte(meas, meas_se, grid_at(pre, DEPTH_GRID[-1]))
+    runs = runs_at(pre)
+    # the other teeth's pitch errors left out where they outweigh the named tooth (features_tooth_window.py)
+    lead = f_shaft * (cal.runner.start_time - float(getattr(cal.m, "t0", 0.0)))
+    center, share = named_tooth_window(
+        cal.m.data[:, c], runs[DEPTH_GRID[-1]], runs[0.0], fs, f_shaft, teeth, lead
+    )
+    cal.notes.append(
+        f"{e.label}: {100 * share:.2g} % of the DTE's non-carrier {e.wheel} average lies away from the tooth"
+        + (
+            f" (the other teeth's pitch errors): its comb read within +-{HALF_WIDTH:g} mesh periods of it"
+            if center is not None
+            else f" (below {100 * MIN_OUTSIDE_SHARE:g} %): the comb read over the whole revolution"
+        )
+    )
+    meas, meas_se = dte_tooth_signature(cal.m.data[:, c], fs, f_shaft, teeth, center_rev=center)
+    at_model = None if center is None else (center - lead) % 1.0  # the same angle in the model's runs
+    grid = {
+        d: dte_tooth_signature(x, fs, f_shaft, teeth, debias=False, center_rev=at_model)[0]
+        for d, x in runs.items()
+    }
+    fit = depth_from_dte(meas, meas_se, grid)
     if fit is None:
         cal.notes.append(f"{e.label}: the DTE comb gives no depth (fewer than 3 sideband families read)")
         return None

@@ -41,13 +41,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gear_rotor_sim.analysis.signals import resample_to_angle
+from gear_rotor_sim.calibration.features_tooth_window import residual_revolutions, tooth_window
 
 #: sideband families ``k = 1..FAMILIES``: orders ``k``, ``z - k``, ``z + k`` of the damaged wheel
 FAMILIES = 6
 
 
 def dte_tooth_signature(
-    x: np.ndarray, fs: float, shaft_hz: float, teeth: int, families: int = FAMILIES, debias: bool = True
+    x: np.ndarray,
+    fs: float,
+    shaft_hz: float,
+    teeth: int,
+    families: int = FAMILIES,
+    debias: bool = True,
+    center_rev: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Amplitude of each sideband family of the DTE's synchronous average of one shaft.
 
@@ -66,6 +73,10 @@ def dte_tooth_signature(
     debias : bool
         Subtract each coefficient's noise variance (between-revolution scatter / revolutions) from its
         squared magnitude (measured records; a model run over whole hunting periods has no noise).
+    center_rev : float, optional
+        Read the families from the average's non-carrier content within the window round the named tooth
+        centred there (revolutions from the first sample; ``features_tooth_window``, Sec. 8.65: the other
+        teeth's pitch errors left out); None: the whole revolution.
 
     Returns
     -------
@@ -90,7 +101,10 @@ def dte_tooth_signature(
     n_rev = (xa.size - 1) // spr
     if n_rev < 4:
         raise ValueError(f"record shorter than 4 revolutions of a {shaft_hz:.3g} Hz shaft")
-    per = np.fft.rfft(xa[: n_rev * spr].reshape(n_rev, spr), axis=1)[:, : o_max + 1] / spr
+    revs = xa[: n_rev * spr].reshape(n_rev, spr)
+    if center_rev is not None:
+        revs = residual_revolutions(revs, teeth) * tooth_window(spr, teeth, center_rev)
+    per = np.fft.rfft(revs, axis=1)[:, : o_max + 1] / spr
     mean = per.mean(axis=0)
     var = np.sum(np.abs(per - mean) ** 2, axis=0) / max(n_rev - 1, 1) / n_rev
     bias = var if debias else np.zeros_like(var)

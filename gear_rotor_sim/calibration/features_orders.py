@@ -22,6 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from scipy import signal as _sig
+from scipy.ndimage import median_filter
 
 from gear_rotor_sim.analysis.signals import resample_to_angle
 
@@ -33,7 +34,12 @@ def _linear_interp_response(freq_ratio: np.ndarray) -> np.ndarray:
 
 
 def synchronous_part(
-    x: np.ndarray, fs: float, shaft_hz: float, f_max_hz: float | None = None, significance: float = 3.0
+    x: np.ndarray,
+    fs: float,
+    shaft_hz: float,
+    f_max_hz: float | None = None,
+    significance: float = 3.0,
+    floor_bins: int = 0,
 ) -> np.ndarray:
     """The part of ``x`` periodic with a shaft turning at ``shaft_hz`` (its TSA on the time samples).
 
@@ -58,6 +64,10 @@ def synchronous_part(
     significance : float
         Orders whose averaged amplitude is below this many standard errors are not synchronous
         content (0 keeps every order: the plain synchronous average).
+    floor_bins : int
+        Floor each order's between-revolution variance by its running median over ``+- floor_bins``
+        orders (0: not floored). Over few revolutions (two hunting periods: ``envelope_hunting.py``) the
+        variance of one order has too few degrees of freedom to judge it alone.
 
     Returns
     -------
@@ -82,6 +92,8 @@ def synchronous_part(
     # itself random, and subtracting it would add 1/n_rev of that content back as periodic
     # pseudo-lines at the shaft's harmonics
     var = np.sum(np.abs(per - coef) ** 2, axis=0) / max(n_rev - 1, 1) / n_rev
+    if floor_bins > 0:
+        var = np.maximum(var, median_filter(var, size=2 * floor_bins + 1, mode="nearest"))
     k = np.arange(coef.size)
     f_k = k * shaft_hz
     f_top = 0.45 * fs if f_max_hz is None else min(f_max_hz, 0.45 * fs)

@@ -11,9 +11,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from gear_rotor_sim.analysis.signals import analytic_band
+from gear_rotor_sim.calibration.envelope_hunting import MIN_SHARE, hunting_part, hunting_share
 from gear_rotor_sim.calibration.features_bearing import static_sensor_gains
 from gear_rotor_sim.calibration.features_envelope_noise import bin_sum_variance_factor, envelope_noise_shape
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
+from gear_rotor_sim.calibration.model_window import hunting_period_s
 from gear_rotor_sim.calibration.residual_types import ModelFeatures
 from gear_rotor_sim.calibration.signal_features import envelope_power_spectrum, prominent_envelope_band
 from gear_rotor_sim.calibration.speed_modulation import remove_speed_modulated
@@ -39,6 +41,10 @@ class EnvelopeFeatures:
                 self._envelope_input(self.y[:, c]) if self.env_use[c] else self.y[:, c]
                 for c in range(self.nc)
             ]
+            # the measured content periodic in the hunting period (tooth pairs: pitch errors) out of the
+            # measured envelope input (envelope_hunting.py); the model holds none where this input is used
+            hunt = self._hunting_parts()
+            self._y_env = [v - h for v, h in zip(self._y_env, hunt, strict=True)]
             for c in range(self.nc):
                 if not self.env_use[c]:
                     band = self.bands[-1] if self.bands else (0.25 * self.fs, 0.45 * self.fs)
@@ -46,7 +52,7 @@ class EnvelopeFeatures:
                     band = self.s.envelope_band_hz
                 else:
                     band, score = prominent_envelope_band(
-                        self._envelope_input(resid[:, c]),
+                        self._envelope_input(resid[:, c]) - hunt[c][: resid.shape[0]],
                         self.fs,
                         self.s.envelope_min_hz,
                         self.env_hi,
@@ -166,6 +172,28 @@ class EnvelopeFeatures:
                 )
         if not self.env_non_sync:
             self.env_use = np.ones(self.nc, dtype=bool)
+
+    def _hunting_parts(self) -> list[np.ndarray]:
+        """Each channel's measured part periodic in the hunting period (``envelope_hunting.hunting_part``
+        of its non-synchronous envelope input) where, at some bearing channel, it carries at least
+        ``envelope_hunting.MIN_SHARE`` of that input's power; zeros elsewhere (and the record unchanged).
+        ``issues`` names the channels and shares."""
+        zeros = [np.zeros(self.y.shape[0]) for _ in range(self.nc)]
+        th = hunting_period_s(self.runner.cfg, self.speed_hz * 60.0) if self.env_non_sync else None
+        if th is None:
+            return zeros
+        idx = [c for c in np.flatnonzero(self.env_use) if np.any(self._y_env[c])]
+        parts = {c: hunting_part(self._y_env[c], self.fs, 1.0 / th) for c in idx}
+        shares = {c: hunting_share(self._y_env[c], parts[c]) for c in idx}
+        if not shares or max(shares.values()) < MIN_SHARE:
+            return zeros
+        self.m.issues.append(
+            "envelope: content periodic in the hunting period (tooth pairs meeting at their own flank "
+            "positions: pitch errors) carries "
+            + ", ".join(f"{100 * v:.2g} % at {self.names[c]}" for c, v in shares.items())
+            + " of the non-synchronous power: removed from the measured envelope input (no bearing makes it)"
+        )
+        return [parts.get(c, z) for c, z in enumerate(zeros)]
 
     def _envelope_input(self, x: np.ndarray) -> np.ndarray:
         """Signal whose envelope is analysed: without every shaft's synchronous part when the speed is
