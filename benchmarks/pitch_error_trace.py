@@ -10,6 +10,13 @@ Two figures, no calibration:
     fires (largest share at least ``MIN_SHARE``). Run on the table's and the held-out set's records (the
     rule must fire on none) and on the pitch-error records.
 
+``--window-stats DIR [DIR ...]``
+    For every saved record whose ``.truth.json`` holds a damaged tooth, the tooth window's statistic
+    (``calibration/features_tooth_window.py``): the share of the DTE's non-carrier average of the tooth's
+    wheel (noise removed) outside the window round the tooth, the window placed where the nominal model puts
+    the tooth (its depth-0.9 run minus the healthy one), and whether the rule fires. The DTE comb is read
+    only where the teeth stay in contact; records above 6000 rpm are skipped.
+
 ``--ser``
     The sideband energy ratios ``SER_m`` of the pinion's synchronous average (``features_sidebands``, the
     tooth candidate's ratio depth reads them) on generator records at 3000 rpm: exact teeth, pitch errors of
@@ -20,6 +27,7 @@ Two figures, no calibration:
 Usage::
 
     python benchmarks/pitch_error_trace.py --hunting-stats DIR [DIR ...]
+    python benchmarks/pitch_error_trace.py --window-stats DIR [DIR ...]
     python benchmarks/pitch_error_trace.py --ser
 """
 
@@ -74,6 +82,39 @@ def hunting_stats(dirs: list[Path]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def window_stats(dirs: list[Path]) -> str:
+    """The tooth window's statistic on saved records with a damaged tooth (module docstring)."""
+    import json
+
+    from gear_rotor_sim.calibration.candidates_tooth import wheel_shaft
+    from gear_rotor_sim.calibration.candidates_tooth_dte import dte_channel
+    from gear_rotor_sim.calibration.features_tooth_window import named_tooth_window
+    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.measurement import load_measurement
+    from gear_rotor_sim.faults import ToothDamage
+
+    lines = []
+    for d in dirs:
+        for csv in sorted(d.glob("*.csv")):
+            truth = csv.with_suffix(".truth.json")
+            faults = json.loads(truth.read_text())["faults"] if truth.exists() else []
+            teeth = [f["parameters"] for f in faults if f["name"] == "tooth_damage"]
+            if not teeth or json.loads(truth.read_text())["speed_rpm"] > 6000:
+                continue
+            cal = Calibrator(load_measurement(csv))
+            cal._setup()
+            e = ToothDamage(tooth=int(teeth[0]["tooth"]), depth=0.9, wheel=teeth[0]["wheel"])
+            c, shaft = dte_channel(cal), wheel_shaft(cal, e)
+            if c is None or shaft is None:
+                continue
+            f_shaft, z = shaft
+            lead = f_shaft * (cal.runner.start_time - float(getattr(cal.m, "t0", 0.0)))
+            run = [cal.runner.outputs(cal._raw(x))[:, c] for x in ((e,), ())]
+            center, share = named_tooth_window(cal.m.data[:, c], *run, cal.m.sample_rate_hz, f_shaft, z, lead)
+            lines.append(f"{d.name}/{csv.stem}: outside share {share:.3g}, fires {center is not None}")
+    return "\n".join(lines) + "\n"
+
+
 def ser_table() -> str:
     """Pinion sideband energy ratios and per-tooth residual levels with and without pitch errors."""
     from gear_rotor_sim.calibration.features_sidebands import sideband_energy_ratios
@@ -117,10 +158,13 @@ def _slot_rms(x: np.ndarray, fs: float, shaft_hz: float, teeth: int) -> np.ndarr
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--hunting-stats", nargs="+", metavar="DIR", help="the envelope rule's statistic")
+    ap.add_argument("--window-stats", nargs="+", metavar="DIR", help="the tooth window's statistic")
     ap.add_argument("--ser", action="store_true", help="pinion sideband energy ratios with pitch errors")
     args = ap.parse_args(argv)
     if args.hunting_stats:
         print(hunting_stats([Path(d) for d in args.hunting_stats]))
+    if args.window_stats:
+        print(window_stats([Path(d) for d in args.window_stats]))
     if args.ser:
         print(ser_table())
     return 0

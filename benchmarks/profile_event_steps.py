@@ -111,12 +111,45 @@ def _gdb_lines(pid: int, addrs: list[int]) -> dict[int, tuple[str, int, str]]:
 
 
 def _short(fn: str) -> str:
-    """The Python name in a numba symbol (``...11gear_kernel9_run_loopB3v22...`` -> ``_run_loop``)."""
-    m = re.search(r"(?:gear_[a-z_]+?|kernels)(\d+)", fn)
+    """The Python name in a numba symbol (``...6solver9gear_loop9_run_loopB3v22...`` -> ``_run_loop``)."""
+    m = re.search(r"(?:solver\d+gear_[a-z_]+?|kernels)(\d+)(?=_)", fn)
     if m is None:
         return fn[:60]
     n = int(m.group(1))
     return fn[m.end() : m.end() + n]
+
+
+def perf_samples(pid: int, seconds: float) -> tuple[int, collections.Counter[int], collections.Counter[str]]:
+    """``perf record`` of process ``pid`` for ``seconds`` (user space, 4 kHz): the number of samples, the
+    samples per address in JIT code (numba's) and per shared-library symbol."""
+    data = tempfile.mktemp(suffix=".perf")
+    try:
+        subprocess.run(
+            ["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-p", str(pid), "-o", data, "--",
+             "sleep", str(seconds)],
+            check=True,
+            capture_output=True,
+        )  # fmt: skip
+        rep = subprocess.run(
+            ["perf", "script", "-i", data, "-F", "ip,sym,dso"], capture_output=True, text=True, check=True
+        ).stdout
+    finally:
+        if os.path.exists(data):
+            os.unlink(data)
+    ips: collections.Counter[int] = collections.Counter()
+    lib: collections.Counter[str] = collections.Counter()
+    total = 0
+    for ln in rep.splitlines():
+        parts = ln.split()
+        if not parts:
+            continue
+        total += 1
+        dso = parts[-1]
+        if any(k in dso for k in ("unknown", "anon", "JIT", "perf-")):
+            ips[int(parts[0], 16)] += 1
+        else:
+            lib[f"{os.path.basename(dso.strip('()'))}:{' '.join(parts[1:-1]).split('+')[0]}"] += 1
+    return total, ips, lib
 
 
 def profile(
@@ -133,30 +166,7 @@ def profile(
     )
     assert child.stdout is not None
     pid = int(child.stdout.readline().split()[1])
-    data = tempfile.mktemp(suffix=".perf")
-    subprocess.run(
-        ["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-p", str(pid), "-o", data, "--", "sleep",
-         str(seconds)],
-        check=True,
-        capture_output=True,
-    )  # fmt: skip
-    rep = subprocess.run(
-        ["perf", "script", "-i", data, "-F", "ip,sym,dso"], capture_output=True, text=True, check=True
-    ).stdout
-    os.unlink(data)
-    ips: collections.Counter[int] = collections.Counter()
-    lib: collections.Counter[str] = collections.Counter()
-    total = 0
-    for ln in rep.splitlines():
-        parts = ln.split()
-        if not parts:
-            continue
-        total += 1
-        dso = parts[-1]
-        if any(k in dso for k in ("unknown", "anon", "JIT", "perf-")):
-            ips[int(parts[0], 16)] += 1
-        else:
-            lib[f"{os.path.basename(dso.strip('()'))}:{' '.join(parts[1:-1]).split('+')[0]}"] += 1
+    total, ips, lib = perf_samples(pid, seconds)
     where = _gdb_lines(pid, sorted(ips))
     child.terminate()
     child.wait(timeout=60)

@@ -12,8 +12,8 @@ holds the mode where the mesh set put it and moves ``F / k`` by ``1 / s``. Two w
   --variants on``; the fit lives there, not in the calibration). Measured: the healthy model's chi^2 is flat
   along the mode-held line (within 2 % over ``s`` 0.6-1.2 on the 4500 rpm gear record), so the fit lands on
   the channels' model-form misfit (x1.32 / x0.82 on the two 4500 rpm tooth records): not hooked in;
-* :func:`inertia_for_dte_depth` (opt-in ``FitSettings.mesh_inertia_from_comb``): where a named tooth's DTE
-  comb (which reads ``F / k``) and its scale-free sideband energy ratios give one depth
+* :func:`inertia_for_dte_depth` (``FitSettings.mesh_inertia_from_comb``, default on since Sec. 8.66): where a
+  named tooth's DTE comb (which reads ``F / k``) and its scale-free sideband energy ratios give one depth
   (:func:`comb_readings`, :func:`consistent_scale`); the DTE depth is then read with that set, which goes
   with the tooth into ``baseline_updates`` (``candidates_tooth_dte.refine_depth_by_dte``).
 
@@ -119,7 +119,7 @@ def consistent_scale(readings: Sequence[CombReading]) -> float | None:
 def inertia_for_dte_depth(cal: Calibrator, e: ToothDamage, accepted: list[Effect]) -> MeshInertia | None:
     """The ``mesh_inertia`` set at which the named tooth's DTE comb and its scale-free sideband ratios
     read one depth (:func:`comb_readings`, :func:`consistent_scale`), for the DTE depth to be read with
-    (``candidates_tooth_dte.refine_depth_by_dte``; opt-in ``FitSettings.mesh_inertia_from_comb``).
+    (``candidates_tooth_dte.refine_depth_by_dte``; ``FitSettings.mesh_inertia_from_comb``, default on).
 
     Only where the record's own mesh set is in the baseline (it placed the mode) and no inertia set yet;
     None when the readings do not cross within :data:`SCALES` (a note gives them).

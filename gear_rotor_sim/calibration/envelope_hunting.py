@@ -43,9 +43,10 @@ import numpy as np
 from gear_rotor_sim.calibration.features_orders import synchronous_part
 
 #: smallest share of the non-synchronous power at a bearing channel periodic in the hunting period for
-#: it to leave the envelope input. A choice after measuring 1e-4-3.8e-2 on every table and held-out
-#: record (bearing defects, faults, healthy; ``benchmarks/pitch_error_trace.py --hunting-stats``) and
-#: 0.18 / 0.57 at a single pitch deviation of 3 / 6 um: a separating value, not a derived one.
+#: it to leave the envelope input. A choice after measuring at most 0.064 on 39 table and held-out records
+#: at 2000-4500 rpm (the outer races 0.037-0.064 at ``bearing2_fy``, the inner races and balls 0.013-0.039;
+#: ``benchmarks/pitch_error_trace.py --hunting-stats``), 0.09 on the quality-5 tooth record and 0.42-0.80
+#: at quality 7: a separating value, not a derived one.
 MIN_SHARE = 0.10
 #: running-median half width (bins of the hunting period's order spectrum) of the coefficients' noise floor
 FLOOR_BINS = 64

@@ -74,10 +74,12 @@ class FitSettings:
     #: baseline sets (no axial line at the wheel's order 1) are not its runner-up
     #: (``candidates_misalignment.py``, Sec. 8.38); False: as in session 14
     misalignment_axial: bool = True
-    #: opt-in: a named tooth's DTE depth read with the gear pair's inertia (mesh mode held) at which its DTE
-    #: comb and its sideband energy ratios agree, where the record's own mesh set is in the baseline
-    #: (``baseline_mesh_inertia.inertia_for_dte_depth``, Sec. 8.41: 4500 rpm gear tooth -40 % -> -5 %)
-    mesh_inertia_from_comb: bool = False
+    #: a named tooth's DTE depth read with the gear pair's inertia (mesh mode held) at which its DTE comb
+    #: and its sideband energy ratios agree, where the record's own mesh set is in the baseline
+    #: (``baseline_mesh_inertia.inertia_for_dte_depth``, Sec. 8.41; default since Sec. 8.66: with the band
+    #: shape of Sec. 8.63 the 4500 rpm / 75 C teeth read -6 % / -5 % and halve the error); False: the
+    #: DTE depth on the record's mesh set (+43 % / +42 % there)
+    mesh_inertia_from_comb: bool = True
     #: in contact: a damaged tooth's sidebands of the mesh harmonics >= 2 on its wheel's shaft taken as the
     #: model's times one fitted factor per harmonic in [0, 1] (the pulse's shape, not its depth;
     #: ``tooth_band_shape.py``, Sec. 8.63: the held-out x1.6 teeth); False: as in session 21

@@ -187,12 +187,14 @@ class EnvelopeFeatures:
         shares = {c: hunting_share(self._y_env[c], parts[c]) for c in idx}
         if not shares or max(shares.values()) < MIN_SHARE:
             return zeros
-        self.m.issues.append(
+        issue = (
             "envelope: content periodic in the hunting period (tooth pairs meeting at their own flank "
             "positions: pitch errors) carries "
             + ", ".join(f"{100 * v:.2g} % at {self.names[c]}" for c, v in shares.items())
             + " of the non-synchronous power: removed from the measured envelope input (no bearing makes it)"
         )
+        if issue not in self.m.issues:  # the bands may be chosen again (a new baseline)
+            self.m.issues.append(issue)
         return [parts.get(c, z) for c, z in enumerate(zeros)]
 
     def _envelope_input(self, x: np.ndarray) -> np.ndarray:
