@@ -40,8 +40,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gear_rotor_sim.analysis.signals import resample_to_angle
-from gear_rotor_sim.calibration.features_tooth_window import residual_revolutions, tooth_window
+from gear_rotor_sim.calibration.features_tooth_window import (
+    angle_revolutions,
+    residual_revolutions,
+    tooth_window,
+)
 
 #: sideband families ``k = 1..FAMILIES``: orders ``k``, ``z - k``, ``z + k`` of the damaged wheel
 FAMILIES = 6
@@ -97,11 +100,10 @@ def dte_tooth_signature(
         lim = 0.42 * fs
         raise ValueError(f"order {o_max} of a {shaft_hz:.3g} Hz shaft lies above 0.42 fs ({lim:.4g} Hz)")
     spr = int(2 ** math.ceil(math.log2(max(fs / shaft_hz, 2 * (o_max + 2)))))
-    _, xa = resample_to_angle(xs - np.mean(xs), fs, shaft_hz * 60.0, spr)
-    n_rev = (xa.size - 1) // spr
+    revs = angle_revolutions(xs, fs, shaft_hz, spr)
+    n_rev = revs.shape[0]
     if n_rev < 4:
         raise ValueError(f"record shorter than 4 revolutions of a {shaft_hz:.3g} Hz shaft")
-    revs = xa[: n_rev * spr].reshape(n_rev, spr)
     if center_rev is not None:
         revs = residual_revolutions(revs, teeth) * tooth_window(spr, teeth, center_rev)
     per = np.fft.rfft(revs, axis=1)[:, : o_max + 1] / spr
