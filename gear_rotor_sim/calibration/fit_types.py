@@ -36,6 +36,9 @@ class FitSettings:
     stop_error: float = 1.3
     bic_threshold: float = 10.0
     min_explained: float = 0.25
+    #: the share of the excess a damaged tooth must explain (``min_explained`` for every other candidate;
+    #: ``candidates_tooth_share.py``, docs/history/calibration_sessions.md Sec. 8.69)
+    min_explained_tooth: float = 0.25
     max_effects: int = 3
     refine_steps: int = 3
     #: after an effect brings the error below ``stop_error``, one more round offers the baseline sets
