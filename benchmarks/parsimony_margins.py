@@ -30,6 +30,10 @@ from typing import Any
 
 #: the wear rule's limit on the static chi^2 before the candidate, ``9 n + 25`` for ``n`` means
 STATIC_PER_MEAN, STATIC_OFFSET = 9.0, 25.0
+#: ``FitSettings``' defaults: every candidate's share and Delta BIC thresholds
+MIN_EXPLAINED, BIC_THRESHOLD = 0.25, 10.0
+#: the tooth threshold whose margin is printed (``--tooth-share``)
+TOOTH_SHARE = 0.1
 _STATIC_NOTE = re.compile(r"tooth_wear: not claimed .*static chi2 ([0-9.eE+-]+) for (\d+) means")
 
 
@@ -75,36 +79,47 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("paths", nargs="+", help="report directories or files")
     ap.add_argument("--all-rounds", action="store_true", help="print every round, not only the maxima")
+    ap.add_argument(
+        "--tooth-share",
+        type=float,
+        default=TOOTH_SHARE,
+        help=f"a damaged tooth's threshold to measure the margin of (default {TOOTH_SHARE})",
+    )
     args = ap.parse_args()
-    worst = {"tooth": (0.0, ""), "wear": (0.0, ""), "static": (0.0, "")}
+    worst = {"band": (0.0, ""), "static": (0.0, "")}
     for path in reports(args.paths):
         rep = json.loads(path.read_text())
         effects = ", ".join(str(e.get("label")) for e in rep.get("effects") or []) or "none"
         chi2, _n, src = static_chi2(rep)
-        print(f"{path.name}: effects {effects}; static chi2 {chi2:.3g} ({src})")
-        tooth_max, wear_max = (0.0, ""), (0.0, "")
+        based = "reference" if path.name.endswith(".baseline.calibration.json") else "no reference"
+        print(f"{path.name} ({based}): effects {effects}; static chi2 {chi2:.3g} ({src})")
+        band, top = (0.0, "-"), (0.0, "-")
         for i, rnd in enumerate(rep.get("candidates_by_round") or []):
             st = round_stats(rnd)
-            lead = rnd[0]["label"] if rnd else "-"
             if args.all_rounds:
+                lead = rnd[0]["label"] if rnd else "-"
                 parts = "; ".join(f"{k} dBIC {d:.4g}, share {x:.3f}" for k, (d, x) in st.items())
                 print(f"  round {i}: leader {lead} | {parts}")
-            if i == 0:
-                continue
-            for k, (_d, x) in st.items():
-                if k.startswith("tooth_damage") and x > tooth_max[0]:
-                    tooth_max = (x, f"{k} round {i}")
-                if k == "tooth_wear" and x > wear_max[0]:
-                    wear_max = (x, f"round {i}")
-        print(f"  after round 0: tooth share {tooth_max[0]:.3f} ({tooth_max[1]}), wear {wear_max[0]:.3f}")
+            for k, (d, x) in st.items():
+                if not k.startswith("tooth_damage") or d <= BIC_THRESHOLD:
+                    continue
+                if x > top[0]:
+                    top = (x, f"{k}, round {i}")
+                if x < MIN_EXPLAINED and x > band[0]:
+                    band = (x, f"{k}, round {i}")
+        margin = args.tooth_share / band[0] if band[0] > 0 else float("inf")
+        print(
+            f"  tooth (dBIC > {BIC_THRESHOLD:g}): largest share {top[0]:.3f} ({top[1]}); largest below "
+            f"{MIN_EXPLAINED} {band[0]:.3f} ({band[1]}): {args.tooth_share} / it = {margin:.3g}"
+        )
         if is_healthy(path):
-            for key, val in (("tooth", tooth_max[0]), ("wear", wear_max[0]), ("static", chi2)):
+            for key, val in (("band", band[0]), ("static", chi2)):
                 if val == val and val > worst[key][0]:
                     worst[key] = (val, path.name)
     print("\nhealthy reports, largest values:")
-    print(f"  tooth share {worst['tooth'][0]:.3f} ({worst['tooth'][1]}) against min_explained 0.25")
     print(
-        f"  wear share {worst['wear'][0]:.3f} ({worst['wear'][1]}; the static rule refuses it where it leads)"
+        f"  tooth share below {MIN_EXPLAINED} with dBIC > {BIC_THRESHOLD:g}: {worst['band'][0]:.3f} "
+        f"({worst['band'][1]}) against {args.tooth_share}"
     )
     lim = STATIC_PER_MEAN * 4 + STATIC_OFFSET
     print(f"  static chi2 {worst['static'][0]:.3g} ({worst['static'][1]}) against 9 n + 25 = {lim:.0f}")
