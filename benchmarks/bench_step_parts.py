@@ -19,10 +19,18 @@ stream as it is on this chunk (``outputs_off``: the per-step mesh arrays not wri
 ``unforced_off``: the 9 unforced modes, exactly zero here, not propagated; ``finite_off``: the
 ``isfinite`` checks removed; ``modes_1``: the fused pass over one forced mode, the stream changes).
 
+``--copy FILE`` adds another kernel source (e.g. main's, by ``bench_kernel_copy.py flatten`` on main's
+tree) and checks the installed kernel's results against it on the chunk (the modal state, the carry,
+the mesh force, states and channels of every step, the last row of the other per-step arrays);
+``--installed-last-rows`` gives the installed kernel one-row excitation arrays, as
+``NewmarkStepper.run(excitation_rows=False)`` does for the ``Simulator`` since session 24, and
+times it with every row as well (``installed_rows``).
+
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/profile_event_steps.py capture /tmp/c20k.pkl``
 then ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_step_parts.py /tmp/c20k.pkl
-[--variants copy outputs_off ...] [--runs 9] [--workdir DIR]`` (each copy compiles for 2-4 minutes
-on a loaded 2-core machine; ``--workdir`` keeps the copies and their numba cache for a second run).
+[--variants copy outputs_off ...] [--runs 9] [--workdir DIR] [--copy FILE] [--installed-last-rows]``
+(each copy compiles for 2-7 minutes on a loaded 2-core machine; ``--workdir`` keeps the copies and
+their numba cache for a second run).
 """
 
 from __future__ import annotations
@@ -119,6 +127,35 @@ def contact_changes(states: np.ndarray) -> float:
     return float(np.count_nonzero(np.diff(s))) / max(s.shape[0] - 1, 1)
 
 
+def last_rows(call: list) -> list:
+    """The call with delta' and the excitation arrays (and delta, where ``event_average`` makes the
+    channels ``outs[12]``) given one row, as ``NewmarkStepper.run(excitation_rows=False)`` passes them
+    since session 24 (the kernel then writes the last step's row only)."""
+    outs = list(call[6])
+    for i in (5, 8, 9, 10, 11) + ((4,) if call[13] else ()):
+        outs[i] = np.ascontiguousarray(outs[i][:1])
+    out = list(call)
+    out[6] = tuple(outs)
+    return out
+
+
+def same_results(a: list, b: list) -> list[str]:
+    """Names of the arrays that differ between two finished calls' arguments (modal state, carry,
+    the per-step mesh force, states and channels, the last row of every per-step array)."""
+    bad = []
+    pairs = [(f"modal{i}", a[0][i], b[0][i]) for i in (0, 1)]
+    pairs += [(f"carry{i}", x, y) for i, (x, y) in enumerate(zip(a[5], b[5], strict=True))]
+    for i, (x, y) in enumerate(zip(a[6][3:], b[6][3:], strict=True)):
+        if x.shape == y.shape:
+            pairs.append((f"outs{i + 3}", x, y))
+        elif x.shape[0] and y.shape[0]:
+            pairs.append((f"outs{i + 3}[-1]", x[-1], y[-1]))
+    for name, x, y in pairs:
+        if not np.array_equal(x, y, equal_nan=True):
+            bad.append(name)
+    return bad
+
+
 def main() -> None:
     from bench_kernel_copy import _load_copy, flat_source
 
@@ -126,9 +163,11 @@ def main() -> None:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("path", help="a chunk from profile_event_steps.py capture")
-    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
+    ap.add_argument("--variants", nargs="*", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--runs", type=int, default=9)
     ap.add_argument("--workdir", default="", help="where the copies go (default: a new temporary directory)")
+    ap.add_argument("--copy", action="append", default=[], help="another kernel source (main's)")
+    ap.add_argument("--installed-last-rows", action="store_true", help="installed: one-row excitation arrays")
     args = ap.parse_args()
     with open(args.path, "rb") as fh:
         cap = pickle.load(fh)
@@ -149,28 +188,42 @@ def main() -> None:
             with open(path, "w", encoding="utf-8") as fh:
                 fh.write(src)
         kernels[name] = _load_copy(path).run_chunk_gear  # type: ignore[attr-defined]
+    if args.installed_last_rows:  # the installed kernel with every row as well (the outputs' share)
+        kernels["installed_rows"] = gear_kernel.run_chunk_gear
+    for i, p in enumerate(args.copy):
+        kernels[f"copy:{i + 1}"] = _load_copy(p).run_chunk_gear  # type: ignore[attr-defined]
     print(f"{n} steps; {len(kernels)} kernels; copies in {work}; load {os.getloadavg()[0]:.1f}", flush=True)
     for locate in (False, bool(cap[8])):
-        call = list(cap)
-        call[8] = locate
+        calls = {}
+        for k in kernels:
+            call = list(cap)
+            call[8] = locate
+            calls[k] = last_rows(call) if (k == "installed" and args.installed_last_rows) else call
         ends = {}
+        done = {}
         for k, fn in kernels.items():  # compile (or load) and what each run ends with
             c0 = time.process_time()
-            b = copy.deepcopy(call)
+            b = copy.deepcopy(calls[k])
             st = fn(*b)
+            done[k] = b
             ends[k] = (st[0], st[3] / n, contact_changes(b[6][7]), time.process_time() - c0)
+        for k in kernels:
+            if k.startswith("copy:"):
+                bad = same_results(done["installed"], done[k])
+                print(f"installed against {k}: " + (f"differ: {', '.join(bad)}" if bad else "bit for bit"))
         cpu: dict[str, list[float]] = {k: [] for k in kernels}
         load0 = os.getloadavg()[0]
         for _ in range(args.runs):
             for k, fn in kernels.items():
-                b = copy.deepcopy(call)
+                b = copy.deepcopy(calls[k])
                 c0 = time.process_time()
                 fn(*b)
                 cpu[k].append(time.process_time() - c0)
-        ref = float(np.median(cpu["copy"])) if "copy" in cpu else float(np.median(cpu["installed"]))
+        base = "copy" if "copy" in cpu else ("copy:1" if "copy:1" in cpu else "installed")
+        ref = float(np.median(cpu[base]))
         print(
             f"events {'located' if locate else 'not located'}: CPU us per step, medians of {args.runs} "
-            f"alternated runs (load {load0:.1f} -> {os.getloadavg()[0]:.1f}); difference from 'copy'"
+            f"alternated runs (load {load0:.1f} -> {os.getloadavg()[0]:.1f}); difference from '{base}'"
         )
         for k in kernels:
             med = float(np.median(cpu[k]))
