@@ -28,8 +28,6 @@ import resource
 import time
 from typing import Any
 
-import numpy as np
-
 from gear_rotor_sim.faults import BearingStiffnessDamping, Effect, MeshStiffnessDamping
 
 VARIANTS = ("none", "numerics", "mesh", "bearing_k", "bearing_c", "bearing", "all")
@@ -84,24 +82,6 @@ def prepared(record: str, baseline: list[Effect] | None, ctol: float | None) -> 
     return cal
 
 
-def low_order_chi2(cal: Any, feats: Any) -> float:
-    """chi^2 of ``feats`` on the shafts' orders below half the mesh frequency alone (where the crack's
-    static share lies and the two forms differ), the gains fitted on ``feats``."""
-    cmp = cal.cmp
-    feats = cmp.apply_shift(feats, cmp.best_shift(feats))
-    g = cmp.fit_gains(feats)
-    out = 0.0
-    for ci in range(cmp.nc):
-        for s, sh in enumerate(cmp.shafts):
-            low = np.abs(sh.orders * sh.ratio) * cmp.speed_hz < 0.5 * cmp.mesh_hz
-            if not low.any():
-                continue
-            mg = cmp.order_gain(g, ci, s) * feats.order[ci][s]
-            r = (cmp.d_order[ci][s] - mg)[low]
-            out += 2.0 * float(np.sum(np.abs(r) ** 2 / cmp.order_sigma2(ci, s, mg)[low]))
-    return out
-
-
 def crack_forms(cal: Any, node: int = 5) -> list[dict[str, Any]]:
     """The crack's fit in each model form on the prepared calibrator's current model."""
     from gear_rotor_sim.calibration import candidates_crack as cc
@@ -109,10 +89,7 @@ def crack_forms(cal: Any, node: int = 5) -> list[dict[str, Any]]:
     from gear_rotor_sim.faults.crack import ShaftCrack
 
     cur = cal._cur_feat
-    e = ShaftCrack(node=node, loss_reference=cc.LOSS_REFERENCE)
-    coef, mesh = cc.mesh_deflection(cal, e)
-    if coef:
-        e = dataclasses.replace(e, mesh_deflection=coef, mesh=mesh)
+    e = cc.fitted_crack(cal, ShaftCrack(node=node))
     temp = cal.m.operating_point.temperature_c
     nominal = cached_system(cal.runner.cfg, temp)
     cfg = cal.runner.cfg
@@ -133,10 +110,10 @@ def crack_forms(cal: Any, node: int = 5) -> list[dict[str, Any]]:
                 "phase_rad": float(fit.effect.parameters()["phase_rad"]),
                 "shaft_loss_nominal": fit.effect.shaft_stiffness_loss(nominal),
                 "chi2": float(cal._chi2(fit.feats)),
-                "chi2_low": low_order_chi2(cal, fit.feats),
+                "chi2_low": cc.low_order_chi2(cal, fit.feats),
                 "error": float(fit.score.error),
-                "r_b_nominal": e.reference_terms(nominal),
-                "r_b_updated": e.reference_terms(updated),
+                "r_b_nominal": dataclasses.replace(e, support_terms=()).reference_terms(nominal),
+                "r_b_updated": dataclasses.replace(e, support_terms=()).reference_terms(updated),
             }
         )
     return out
@@ -148,7 +125,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reference", required=True, help="a saved reference baseline (*.reference.json)")
     ap.add_argument("--variants", nargs="*", default=list(VARIANTS))
     ap.add_argument("--json", default=None, help="write the rows here")
+    ap.add_argument("--no-dynamic", action="store_true", help="the static share alone (DYNAMIC_SHARE off)")
+    ap.add_argument(
+        "--session23",
+        action="store_true",
+        help="the phase and the loss's terms as in session 23 (PHASE_ON_LOW_ORDERS, NOMINAL_SUPPORT off)",
+    )
     args = ap.parse_args(argv)
+    from gear_rotor_sim.calibration import candidates_crack
+
+    if args.no_dynamic:
+        candidates_crack.DYNAMIC_SHARE = False
+    if args.session23:
+        candidates_crack.NOMINAL_SUPPORT = False
+        candidates_crack.PHASE_ON_LOW_ORDERS = False
     updates, ctol = reference_updates(args.reference)
     rows = []
     for name in args.variants:
