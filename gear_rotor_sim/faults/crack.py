@@ -318,6 +318,7 @@ class ShaftCrack(Effect):
             raise ValueError(f"breathing: {self.breathing!r} is not one of {list(BREATHING_LAWS)}")
         if self.loss_reference not in LOSS_REFERENCES:
             raise ValueError(f"loss_reference: {self.loss_reference!r} is not one of {list(LOSS_REFERENCES)}")
+        object.__setattr__(self, "support_terms", tuple(float(x) for x in self.support_terms))
         if self.support_terms and not (
             len(self.support_terms) == 2 and all(math.isfinite(x) and x > 0 for x in self.support_terms)
         ):
@@ -352,6 +353,15 @@ class ShaftCrack(Effect):
             hit = (system, (ks / support_stiffness(system, self.node - 1), float(ks * d @ B @ d)))
             self._cache[key] = hit
         return hit[1]
+
+    def model_form(self) -> dict[str, Any]:
+        """The form the crack was taken in (reported with a fitted crack, ``calibration/fit_types.py``): the
+        bearings' tilt damping in its response, the loss's reference and the support terms held."""
+        return {
+            "bearing_tilt_damping": bool(self.bearing_tilt_damping),
+            "loss_reference": self.loss_reference,
+            "support_terms": list(self.support_terms),
+        }
 
     def shaft_stiffness_loss(self, system: Any) -> float:
         """``l_s``: the drop of the shaft's bending stiffness at the node, a fraction (``loss_reference``)."""
