@@ -19,6 +19,20 @@ LOSS, PHASE = 0.3, 0.7
 CRACK = f"shaft_crack:shaft=pinion,stiffness_loss={LOSS},phase_rad={PHASE}"
 
 
+def _crack_named_with_its_loss_and_phase(r):
+    """The first effect of the result ``r``: the crack at the pinion seat, its loss within 25 % and its phase
+    within 0.35 rad of the generator's, the error at least halved, and the form kept the one without the
+    bearings' tilt damping (the generator's shaft has pinned ends, history Sec. 8.64), reported as such."""
+    assert r.effects, r.conclusion
+    first = r.effects[0]
+    assert first.label == "shaft_crack@node5", [(e.label, e.confidence) for e in r.effects]
+    assert abs(first.parameters["stiffness_loss"] / LOSS - 1.0) < 0.25, first.parameters
+    assert abs(math.remainder(first.parameters["phase_rad"] - PHASE, 2.0 * math.pi)) < 0.35, first.parameters
+    assert r.error_after <= 0.5 * r.error_before, (r.error_before, r.error_after)
+    assert first.as_dict()["model_form"]["bearing_tilt_damping"] is False
+    return first
+
+
 def test_crack_of_the_independent_generator_is_named_with_its_loss_and_phase(tmp_path) -> None:
     """A breathing crack on the pinion shaft of the independent lumped gearbox (its own model: the crack on
     the lumped lateral spring, breathing on the instantaneous deflection; 3000 rpm, 0.6 s): the library's
@@ -29,14 +43,24 @@ def test_crack_of_the_independent_generator_is_named_with_its_loss_and_phase(tmp
     halved, and the claim check leaves it confident."""
     rec = make_record(3000.0, 25.0, [CRACK], duration_s=0.6, seed=44)
     r = Calibrator(load_measurement(write_record(tmp_path / "crack.csv", rec))).run()
-    assert r.effects, r.conclusion
-    first = r.effects[0]
-    assert first.label == "shaft_crack@node5", [(e.label, e.confidence) for e in r.effects]
-    assert abs(first.parameters["stiffness_loss"] / LOSS - 1.0) < 0.25, first.parameters
-    assert abs(math.remainder(first.parameters["phase_rad"] - PHASE, 2.0 * math.pi)) < 0.35, first.parameters
-    assert r.error_after <= 0.5 * r.error_before, (r.error_before, r.error_after)
+    first = _crack_named_with_its_loss_and_phase(r)
     assert first.status == "found" and first.confidence > 0.5
     assert not any(e.label.startswith("tooth_damage") for e in r.effects)
+
+
+def test_crack_loss_against_a_reference_baseline(tmp_path, reference_2000) -> None:
+    """The same crack record diagnosed against the machine's baseline fitted on a healthy 2000 rpm record of
+    the generator (``--baseline``, the shared 0.6 s reference of conftest.py: its bearing scale lowers the
+    node's support spring, its carrier tolerance reweights the features): the loss, reported on the nominal
+    machine's support spring, within 25 % of the generator's, its phase within 0.35 rad, the error at least
+    halved (history Sec. 8.67: session 23's code read the table's 2 s record 0.457, +52 %, keeping the
+    tilt-damped form on the whole chi^2; with its three switches off this test reads 0.457 and fails). The
+    crack is the only candidate offered: what is tested is its fit
+    against the updated model, not the ranking (the table benchmark's row)."""
+    rec = make_record(3000.0, 25.0, [CRACK], duration_s=0.6, seed=44)
+    m = load_measurement(write_record(tmp_path / "crack.csv", rec))
+    r = Calibrator(m, candidates=[ShaftCrack(node=5)], **reference_2000.calibrator_kwargs()).run()
+    _crack_named_with_its_loss_and_phase(r)
 
 
 def test_a_crack_phase_one_mesh_period_on_is_the_response_one_mesh_period_later() -> None:

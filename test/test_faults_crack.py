@@ -102,6 +102,39 @@ def test_support_stiffness_is_the_shaft_in_series_with_its_bearings(cfg) -> None
     assert crack.shaft_stiffness_loss(sys_t) == pytest.approx(shaft_loss(0.3, r, b), rel=1e-12)
 
 
+def test_held_support_terms_keep_the_loss_off_a_bearing_scale(cfg, system) -> None:
+    """``support_terms`` (what the calibration holds, history Sec. 8.67): a reference's bearing stiffness
+    scale x0.521 softens the node's support spring, so the system's own ``r = k_s / k_L`` grows at least as
+    the series spring's (``1 / k_L = 1 / k_s + 1 / k_bearings``, the bearings' part scaled) and one support
+    loss maps to a larger shaft loss; with the nominal machine's
+    terms held the shaft's loss is the nominal one on the scaled system too. Lists are taken as tuples, bad
+    terms refused, and the reported form carries them."""
+    import dataclasses
+
+    from gear_rotor_sim.calibration.fit_types import FoundEffect
+    from gear_rotor_sim.faults import BearingStiffnessDamping
+
+    scale = 0.521
+    soft = GearRotorSystem.from_config(BearingStiffnessDamping(scale, 1.0).modify_config(cfg), 25.0)
+    crack = ShaftCrack(node=PINION_NODE, stiffness_loss=0.3, loss_reference="support")
+    (r0, _), (r1, _) = crack.reference_terms(system), crack.reference_terms(soft)
+    # r = 1 + k_s / k_b for the series spring: at least (r0 - 1) / scale more (measured 1.466 -> 2.035: the
+    # bearings' tilt stiffness, scaled too, had stiffened the seat beyond the radial springs' share)
+    assert r1 >= 1.0 + (r0 - 1.0) / scale
+    assert crack.shaft_stiffness_loss(soft) > 1.1 * crack.shaft_stiffness_loss(system)
+    held = dataclasses.replace(crack, support_terms=list(crack.reference_terms(system)))
+    assert isinstance(held.support_terms, tuple)
+    assert held.shaft_stiffness_loss(soft) == pytest.approx(crack.shaft_stiffness_loss(system), rel=1e-12)
+    with pytest.raises(ValueError, match="support_terms"):
+        ShaftCrack(support_terms=(1.4, -0.9))
+    found = FoundEffect(held.name, held.label, held.parameters(), {}, 1.0, 0.0, 0.0, 1.0, 0.5, held)
+    assert found.as_dict()["model_form"] == {
+        "bearing_tilt_damping": True,
+        "loss_reference": "support",
+        "support_terms": list(held.support_terms),
+    }
+
+
 def _static(system, extra_k: np.ndarray | None = None, extra_f: np.ndarray | None = None) -> np.ndarray:
     """Static state of ``(K + sum k_m V V^T + extra_k) q = static load + sum k_m b* V + extra_f`` (the
     system of ``static_solution``), drive DOF held."""

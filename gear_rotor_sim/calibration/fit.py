@@ -304,21 +304,7 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         remove_unlocked_lines(self)  # mains off the orders, a neighbouring machine's tones (line_removal.py)
         base_out = check_conventions(self)  # _setup and the sensor conventions
         speed_errors = correction_errors(self)  # None unless the speed was corrected (speed_check.py)
-        self._at_rattle = False
-        if self.rattle_rules:
-            # where the teeth separate: honest order uncertainties (features_rattle.py)
-            self._at_rattle = apply_rattle_uncertainty(
-                self.cmp,
-                self._features(self.base_raw),
-                lambda e: self._features(self._raw((e,))),
-                self.base_contact_loss,
-                self.m.issues,
-            )
-        if self._at_rattle:
-            # a worn machine stays on the healthy machine's rattle branch (candidates_wear_rattle.py)
-            self.runner.grown_effects = (ToothWear,)
-        self._tooth_path = None if self._at_rattle else contact_tooth_path(self)
-        self._refit_transfer(self._features(self.base_raw))
+        self._prepare_comparison()
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total
         self.log(f"nominal model: error {score0.error:.3g}")
@@ -597,6 +583,26 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         apply_claim_checks(result, self.runner.cfg)
         # mains pickup on a shaft order on one or two channels: diagnosed again without it (mains_repair.py)
         return rerun_without_pickup(self, result, cur_feat, cur_score)
+
+    def _prepare_comparison(self) -> None:
+        """After the setup: the rattle rules' order uncertainties where the healthy model's teeth separate,
+        a damaged tooth's path in contact, and the transfer slopes fitted on the healthy (baseline) model
+        and held (``benchmarks/crack_baseline_trace.py`` brings a calibrator to its first round so)."""
+        self._at_rattle = False
+        if self.rattle_rules:
+            # where the teeth separate: honest order uncertainties (features_rattle.py)
+            self._at_rattle = apply_rattle_uncertainty(
+                self.cmp,
+                self._features(self.base_raw),
+                lambda e: self._features(self._raw((e,))),
+                self.base_contact_loss,
+                self.m.issues,
+            )
+        if self._at_rattle:
+            # a worn machine stays on the healthy machine's rattle branch (candidates_wear_rattle.py)
+            self.runner.grown_effects = (ToothWear,)
+        self._tooth_path = None if self._at_rattle else contact_tooth_path(self)
+        self._refit_transfer(self._features(self.base_raw))
 
     def _plain(self, model: np.ndarray, score: Score) -> dict[str, dict[str, float]]:
         fs = self.m.sample_rate_hz

@@ -133,6 +133,8 @@ class FoundEffect:
     status: str = "found"  # "found", "suspect" (claim_check.py), "baseline", "at_bound", "inconsistent"
 
     def as_dict(self) -> dict[str, Any]:
+        # an effect fitted in more than one model form says which it was (``ShaftCrack.model_form``)
+        form = getattr(self.effect, "model_form", None)
         return {
             "name": self.name,
             "label": self.label,
@@ -144,6 +146,7 @@ class FoundEffect:
             "explained_fraction": self.explained_fraction,
             "error_before": self.error_before,
             "error_after": self.error_after,
+            **({"model_form": form()} if callable(form) else {}),
         }
 
 
