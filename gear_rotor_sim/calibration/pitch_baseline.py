@@ -19,10 +19,13 @@ wheel's pattern is fitted only where it is
 
 * significant: its energy at the orders read at least :data:`MIN_SIGNIFICANCE` times what its noise alone
   gives (``WheelPattern.significance``, without the long-wave part; measured 0.75-1.44 on the generator's
-  records without pitch errors, 214-327 with 6 um), and
+  records without pitch errors, 214-327 with 6 um),
 * spread round the wheel: at least :data:`MIN_SPREAD` of its energy more than two teeth from its largest
   flank (``pitch_pattern.spread``; 0.05 for one damaged tooth read as a pattern, 0.60-0.89 for pitch
-  deviations and for noise),
+  deviations and for noise), and
+* not a smooth wave: at least :data:`MIN_HIGH_SHARE` of its energy in the per-tooth harmonics above a
+  quarter of the teeth (``pitch_pattern.high_harmonic_share``; 0.54-0.64 at quality 7, 0.06 on the table's
+  gear misalignment record, whose even orders read significance 21 and spread 0.84),
 
 and kept where it lowers the balanced chi^2 beyond the BIC penalty of its positions and path factors
 (:func:`path_factors`). The pattern is synchronous with its wheel: it enters the order features, never the
@@ -39,6 +42,7 @@ import numpy as np
 
 from gear_rotor_sim.calibration.pitch_pattern import (
     fit_wheel_pattern,
+    high_harmonic_share,
     pattern_basis,
     pattern_orders,
     spread,
@@ -57,6 +61,9 @@ if TYPE_CHECKING:
 MIN_SIGNIFICANCE = 20.0
 #: smallest share of a wheel's pattern energy away from its largest flank (not one tooth)
 MIN_SPREAD = 0.4
+#: smallest share of a wheel's pattern energy in the per-tooth harmonics above a quarter of its teeth (not a
+#: smooth wave round the wheel)
+MIN_HIGH_SHARE = 0.3
 #: largest factor on the pattern's path to a bearing or housing channel (``path_factors``)
 MAX_PATH_FACTOR = 2.0
 #: first mesh-harmonic band whose factor is fitted at the DTE (``path_factors``)
@@ -74,11 +81,16 @@ class WheelReading:
     spread: float
     explained: float
     fixed: tuple[int, ...]
+    high_share: float = 0.0
     long_wave: bool = False
 
     @property
     def applies(self) -> bool:
-        return self.significance >= MIN_SIGNIFICANCE and self.spread >= MIN_SPREAD
+        return (
+            self.significance >= MIN_SIGNIFICANCE
+            and self.spread >= MIN_SPREAD
+            and self.high_share >= MIN_HIGH_SHARE
+        )
 
     def text(self) -> str:
         rms = float(np.sqrt(np.mean(self.positions_m**2))) * 1e6
@@ -86,7 +98,8 @@ class WheelReading:
         fixed += ", with its long-wave part" if self.long_wave else ""
         return (
             f"{self.wheel}: significance {self.significance:.3g} (rule {MIN_SIGNIFICANCE:g}), spread "
-            f"{self.spread:.2f} (rule {MIN_SPREAD:g}), flank RMS {rms:.2f} um, explains "
+            f"{self.spread:.2f} (rule {MIN_SPREAD:g}), high harmonics {self.high_share:.2f} (rule "
+            f"{MIN_HIGH_SHARE:g}), flank RMS {rms:.2f} um, explains "
             f"{100 * self.explained:.0f} % of the average's non-carrier content{fixed}"
         )
 
@@ -131,8 +144,9 @@ def read_wheels(cal: Calibrator, model_dte: np.ndarray, accepted: list[Effect]) 
             )
         )
         w = fit_wheel_pattern(rec - mod, var, teeth, eps, fixed)
+        p = w.positions_m
         r = WheelReading(
-            wheel, teeth, w.positions_m, w.significance, spread(w.positions_m), w.explained, fixed
+            wheel, teeth, p, w.significance, spread(p), w.explained, fixed, high_harmonic_share(p)
         )
         owned = any(
             isinstance(e, (GearEccentricity, GearMisalignment)) and e.member == wheel for e in accepted
