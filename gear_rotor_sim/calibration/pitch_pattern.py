@@ -80,7 +80,7 @@ class WheelPattern:
         Standard error of one tooth's position from the coefficients' noise, m.
     significance : float
         The fitted pattern's energy at the orders used over the energy its noise alone would give there
-        (1: noise; chi^2 of the fit's improvement over its degrees of freedom).
+        plus ``floor_energy`` (1: noise; chi^2 of the fit's improvement over its degrees of freedom).
     explained : float
         Share of the average's energy at the orders used (noise removed) that the pattern reproduces.
     """
@@ -89,6 +89,7 @@ class WheelPattern:
     se_m: float
     significance: float
     explained: float
+    energy: float = 0.0
 
 
 def pattern_basis(teeth: int, long_wave: bool = False) -> np.ndarray:
@@ -125,6 +126,7 @@ def fit_wheel_pattern(
     contact_ratio: float,
     fixed: tuple[int, ...] = (),
     long_wave: bool = False,
+    floor_energy: float = 0.0,
 ) -> WheelPattern:
     """Least-squares flank positions from the average's coefficients at :func:`pattern_orders`.
 
@@ -142,6 +144,9 @@ def fit_wheel_pattern(
         diagnosis owns its own slot (``pitch_baseline.py``).
     long_wave : bool
         Also the harmonics ``1 .. LONG_WAVE`` of the tooth index (:func:`pattern_basis`).
+    floor_energy : float
+        Energy added to the noise's in the significance (the healthy model's own content there: the
+        integration's numerical lines at the shaft orders, ``pitch_baseline.read_wheels``).
     """
     orders = pattern_orders(teeth)
     basis = pattern_basis(teeth, long_wave)
@@ -159,14 +164,16 @@ def fit_wheel_pattern(
     noise = float(np.sum(var))  # expected |noise|^2 summed over the orders (real + imaginary)
     n_par = basis.shape[1]
     # the fit's energy against the energy the noise alone puts into n_par of the 2 n_orders directions
-    significance = float(np.sum(fitted**2)) / max(noise * n_par / (2 * orders.size), 1e-300)
+    energy = float(np.sum(fitted**2))
+    significance = energy / max(noise * n_par / (2 * orders.size) + floor_energy, 1e-300)
     total = max(float(np.sum(y**2)) - noise, 1e-300)
     left = max(float(np.sum((y - fitted) ** 2)) - noise * (1.0 - n_par / (2 * orders.size)), 0.0)
     explained = max(0.0, 1.0 - left / total)
     gram = np.linalg.inv(a.T @ a)
     per_coef = noise / (2 * orders.size)
     cov = basis @ gram @ basis.T * per_coef
-    return WheelPattern(basis @ c, float(math.sqrt(max(np.mean(np.diag(cov)), 0.0))), significance, explained)
+    se = float(math.sqrt(max(np.mean(np.diag(cov)), 0.0)))
+    return WheelPattern(basis @ c, se, significance, explained, energy)
 
 
 #: teeth either side of the largest flank counted as its neighbourhood in :func:`spread`
