@@ -333,7 +333,7 @@ class PeriodicReplay:
         if off:
             speed = sim._speed.value(t) * (2.0 * np.pi / 60.0)
             stepper.locate_events = self._key[2]
-            stepper.run(t, angle, speed, st)
+            stepper.run(t, angle, speed, st, excitation_rows=False)
         else:  # the boundary itself: the stored state, at this instant's angle and time
             st.angle = float(angle[0])
             st.time = float(t[0])

@@ -205,7 +205,7 @@ class Stepping:
         if rep is not None:
             key = rep.key_of(self)
             angle = rep.begin(self, key, angle)
-        ch, _, _, fm, states, _ = self._stepper.run(t, angle, speed, self._state)
+        ch, _, _, fm, states, _ = self._stepper.run(t, angle, speed, self._state, excitation_rows=False)
         if self._mis.active:
             self._mis.push(angle[1:-1], fm)
         if rep is not None:

@@ -49,6 +49,7 @@ from gear_rotor_sim.calibration.candidates_tooth import (
     ratio_depth_in_contact,
     wheel_shaft,
 )
+from gear_rotor_sim.calibration.candidates_tooth_share import min_share
 from gear_rotor_sim.calibration.features_dte_depth import DteDepthFit, depth_from_dte, dte_tooth_signature
 from gear_rotor_sim.calibration.features_sidebands import DEPTH_GRID
 from gear_rotor_sim.calibration.features_tooth_window import HALF_WIDTH, MIN_OUTSIDE_SHARE, named_tooth_window
@@ -216,7 +217,7 @@ def confirmed_or_fallback(
     dbic = cur.balanced_chi2 - ver.score.balanced_chi2 - screened.k * math.log(n)
     expl = (cur.balanced_chi2 - ver.score.balanced_chi2) / max(cur.balanced_chi2 - n, 1e-12)
     p_sep = 1.0 / (1.0 + math.exp(-max(min((dbic - runner_up) / 2, 700.0), -700.0)))
-    ok = dbic > cal.fit.bic_threshold and max(expl, screened.comb_explained) >= cal.fit.min_explained
+    ok = dbic > cal.fit.bic_threshold and max(expl, screened.comb_explained) >= min_share(cal, ver.effect)
     if ok and (p_sep >= 0.5 or not math.isfinite(runner_up)):
         return dataclasses.replace(ver, fallback=None)
     cal.notes.append(

@@ -36,6 +36,10 @@ class FitSettings:
     stop_error: float = 1.3
     bic_threshold: float = 10.0
     min_explained: float = 0.25
+    #: the share of the excess a damaged tooth must explain without a reference, teeth in contact
+    #: (``candidates_tooth_share.py``, Sec. 8.69: the held-out x0.6 gear tooth explains 0.164 in its round,
+    #: 0.220 verified); ``min_explained`` elsewhere and for every other candidate
+    min_explained_tooth: float = 0.10
     max_effects: int = 3
     refine_steps: int = 3
     #: after an effect brings the error below ``stop_error``, one more round offers the baseline sets
@@ -84,9 +88,9 @@ class FitSettings:
     #: model's times one fitted factor per harmonic in [0, 1] (the pulse's shape, not its depth;
     #: ``tooth_band_shape.py``, Sec. 8.63: the held-out x1.6 teeth); False: as in session 21
     tooth_band_shape: bool = True
-    #: once the search has ended (and on a reference record), the wheels' pitch deviations read from the DTE's
-    #: synchronous averages where they are significant and spread round the wheel, added to the machine's
-    #: baseline (``pitch_baseline.py``, Sec. 8.68); False: not read
+    #: once the search has ended, the wheels' pitch deviations read from the DTE's synchronous averages where
+    #: they stand out (significant, spread, not a smooth wave), added to the machine's baseline
+    #: (``pitch_baseline.py``, Sec. 8.68); False: not read
     pitch_pattern: bool = True
 
 

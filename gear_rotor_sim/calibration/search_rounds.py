@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gear_rotor_sim.calibration.candidates_tooth_dte import confirmed_or_fallback
+from gear_rotor_sim.calibration.candidates_tooth_share import min_share
 from gear_rotor_sim.calibration.radial_static import moved_judged_mean
 from gear_rotor_sim.faults import BASELINE_TYPES, Effect, GearMisalignment
 
@@ -179,7 +180,7 @@ def examine_round(
         share = max(f.explained, f.comb_explained if f in admissible else 0.0)
         if f.delta_bic <= cal.fit.bic_threshold:
             break
-        if share < cal.fit.min_explained:
+        if share < min_share(cal, f.effect):
             continue
         if f not in admissible:
             cal.notes.append(
@@ -244,7 +245,7 @@ def examine_round(
             continue
         if (
             dbic > cal.fit.bic_threshold
-            and max(expl, f.comb_explained) >= cal.fit.min_explained
+            and max(expl, f.comb_explained) >= min_share(cal, f.effect)
             and p_sep >= 0.5
         ):
             ver.delta_bic, ver.explained = dbic, expl

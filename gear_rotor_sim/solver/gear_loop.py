@@ -124,6 +124,14 @@ def _run_loop(
         (swr, swi),
     )
 
+    # the unforced modes: exactly zero with a zero static increment (a fixed set point from the static
+    # equilibrium; nothing forces them) they stay zero, bit for bit, and are not propagated
+    nu = nf
+    for j in range(nf, nmode):
+        if zr[j] != 0.0 or zi[j] != 0.0 or c0r[j] != 0.0 or c0i[j] != 0.0:
+            nu = nmode
+            break
+
     n_fail = 0
     n_sub = 0
     hb = 0
@@ -191,9 +199,9 @@ def _run_loop(
                 _copy_int(s_p, state)
                 return status, o, n_fail, n_sub
             if fused:
-                _update_fused(nf, e0, alpha, qa, ypred, fz)
+                _update_fused(nf, nu, e0, alpha, qa, ypred, fz)
             else:
-                _update_plain(nf, alpha, ypred, fz, flat)
+                _update_plain(nf, nu, alpha, ypred, fz, flat)
             if javg:  # the end force with the end's own tables, carried into the next step
                 _jump_average_end(mesh_par, prev, cur, ja)
         else:

@@ -280,9 +280,13 @@ def _commit_meshes(mesh_par: np.ndarray, carry: tuple, meshw: tuple, bound: floa
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
-def _update_fused(nf: int, e0: int, alpha: np.ndarray, qa: np.ndarray, ypred: np.ndarray, fz: tuple) -> None:
+def _update_fused(
+    nf: int, nu: int, e0: int, alpha: np.ndarray, qa: np.ndarray, ypred: np.ndarray, fz: tuple
+) -> None:
     """The regular step's modal update ``z <- r z + c0 + sum_q SW_q alpha_q`` and the next step's
-    mesh predictions ``Re((V Phi) r z)`` in one pass over the forced modes (the rest only propagate),
+    mesh predictions ``Re((V Phi) r z)`` in one pass over the forced modes (the unforced modes
+    ``nf .. nu - 1`` only propagate; those from ``nu`` are exactly zero and stay so, see
+    :func:`.gear_loop._run_loop`),
     the mesh columns unrolled (4 slots a mesh, 2 meshes at most: ``qa`` the column of each slot or
     -1), the effect columns summed first into ``gr``, ``gi``. ``fz`` = (modes, forced, slots, rows,
     g, flat): the modal state and map (zr, zi, rr, ri, c0r, c0i), their forced-mode views, the slots'
@@ -378,7 +382,7 @@ def _update_fused(nf: int, e0: int, alpha: np.ndarray, qa: np.ndarray, ypred: np
             y1 += p1r[j] * tr - p1i[j] * ti
             y2 += p2r[j] * tr - p2i[j] * ti
             y3 += p3r[j] * tr - p3i[j] * ti
-    for j in range(nf, nmode):  # unforced modes only propagate
+    for j in range(nf, nu):  # unforced modes only propagate
         xr = zr[j]
         xi = zi[j]
         zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]
@@ -391,10 +395,11 @@ def _update_fused(nf: int, e0: int, alpha: np.ndarray, qa: np.ndarray, ypred: np
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy", inline="always")
-def _update_plain(nf: int, alpha: np.ndarray, ypred: np.ndarray, fz: tuple, flat: tuple) -> None:
+def _update_plain(nf: int, nu: int, alpha: np.ndarray, ypred: np.ndarray, fz: tuple, flat: tuple) -> None:
     """The modal update without the fused pass (more than two meshes or four columns a mesh): the
-    forced modes' map, then each column with a non-zero amplitude, the unforced modes, then the
-    predictions. ``fz`` as :func:`_update_fused`'s, ``flat`` = (swr, swi, crr, cri)."""
+    forced modes' map, then each column with a non-zero amplitude, the unforced modes up to ``nu``
+    (as :func:`_update_fused`), then the predictions. ``fz`` as :func:`_update_fused`'s, ``flat`` =
+    (swr, swi, crr, cri)."""
     zr, zi, rr, ri, c0r, c0i = fz[0]
     swr, swi, crr, cri = flat
     nm = ypred.shape[0] // 2
@@ -412,7 +417,7 @@ def _update_plain(nf: int, alpha: np.ndarray, ypred: np.ndarray, fz: tuple, flat
             for j in range(nf):
                 zr[j] += swr[q0 + j] * aq
                 zi[j] += swi[q0 + j] * aq
-    for j in range(nf, nmode):
+    for j in range(nf, nu):
         xr = zr[j]
         xi = zi[j]
         zr[j] = rr[j] * xr - ri[j] * xi + c0r[j]

@@ -337,17 +337,22 @@ class NewmarkStepper:
         speed: np.ndarray,
         st: SolverState,
         bound: float = DTE_BOUND_M,
+        excitation_rows: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
         """Advance over the new steps ``t[1:-1]`` (arrays with one extra step on each side).
 
         Returns channel samples (n, nch), delta (n, nm), delta' (n, nm), mesh force (n, nm),
         contact states (n, nm) and the excitation arrays (k, e, e_dot, coef, ampl); updates ``st``.
+        ``excitation_rows=False`` (the table-mesh kernel only): delta' and the excitation arrays k,
+        e, e_dot, coef hold the last step's row only, and so does delta where the channels do not
+        read it (``event_average``); the channels, the mesh force, the states and ``st`` are the
+        same (docs/history/solver_sessions.md, "Session 24").
         """
         mp = self.map
         assert mp is not None
         lin = self.lin
         if self.gear is not None:
-            return self._run_gear(t, angle, speed, st, bound)
+            return self._run_gear(t, angle, speed, st, bound, excitation_rows)
         kt, et, edt, coef, ampl = excitation(lin, t, angle, speed, self.effects)
         n = kt.shape[0]
         no = len(self.row_index)
@@ -415,7 +420,13 @@ class NewmarkStepper:
         return ch, dte, dted, fm, states, (kt, et, edt, coef, ampl)
 
     def _run_gear(
-        self, t: np.ndarray, angle: np.ndarray, speed: np.ndarray, st: SolverState, bound: float
+        self,
+        t: np.ndarray,
+        angle: np.ndarray,
+        speed: np.ndarray,
+        st: SolverState,
+        bound: float,
+        excitation_rows: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
         """:meth:`run` through :func:`gear_kernel.run_chunk_gear` (table meshes, modal map)."""
         gm = self.gear
@@ -456,15 +467,22 @@ class NewmarkStepper:
         ampl_k = np.ascontiguousarray(ampl_k)
         all_in_gemm = gm.cstack.shape[1] == len(self.specs)
         out = np.empty((n, gm.cstack.shape[1]))  # every channel in order, or none (see gear_map)
-        if bufs is None:
-            dte, dted, fm, kt, et, edt = (np.empty((n, nm)) for _ in range(6))
-            states = np.empty((n, nm), dtype=np.int8)
-            coef = np.empty((n, nm, lin.nb))
-        else:  # the channels (``out``) stay fresh: the decimator may hold them past this call
-            dte, dted, fm, kt, et, edt = (bufs.get(k, (n, nm)) for k in ("d", "dd", "f", "k", "e", "ed"))
-            states = bufs.get("states", (n, nm), np.int8)
-            coef = bufs.get("coef", (n, nm, lin.nb))
         avg = bool(self.event_average)
+        # rows of delta and of the excitation arrays: every step's, or the last step's only
+        nx = n if excitation_rows else min(n, 1)
+        nd = n if (excitation_rows or not avg) else nx
+        if bufs is None:
+            dte = np.empty((nd, nm))
+            fm = np.empty((n, nm))
+            dted, kt, et, edt = (np.empty((nx, nm)) for _ in range(4))
+            states = np.empty((n, nm), dtype=np.int8)
+            coef = np.empty((nx, nm, lin.nb))
+        else:  # the channels (``out``) stay fresh: the decimator may hold them past this call
+            dte = bufs.get("d", (nd, nm))
+            fm = bufs.get("f", (n, nm))
+            dted, kt, et, edt = (bufs.get(k, (nx, nm)) for k in ("dd", "k", "e", "ed"))
+            states = bufs.get("states", (n, nm), np.int8)
+            coef = bufs.get("coef", (nx, nm, lin.nb))
         # the mesh channels with event_average (fresh: they are the channels; else unused, empty)
         dte_ch = np.empty((n, nm) if avg else (0, nm))
         fm_ch = np.empty((n, nm) if avg else (0, nm))

@@ -160,7 +160,7 @@ def simulate_steady(
         t = seg_t0 + j * dt
         angle = seg_a0 + omega * j * dt
         speed = np.full(j.size, omega)
-        ch, _, _, _, states, _ = stepper.run(t, angle, speed, st)
+        ch, _, _, _, states, _ = stepper.run(t, angle, speed, st, excitation_rows=False)
         seg_j += nstep
         idx = np.arange(1, nstep + 1)
         rec = idx > m_tr * spm
