@@ -88,6 +88,7 @@ from gear_rotor_sim.calibration.mains_repair import copy_measurement, rerun_with
 from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice
 from gear_rotor_sim.calibration.model_window import model_window_samples
+from gear_rotor_sim.calibration.pitch_baseline import pitch_round
 from gear_rotor_sim.calibration.residual import (
     REFERENCE_STEPS_PER_MESH,
     Comparison,
@@ -540,6 +541,10 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
             cur_score = self.cmp.score(cur_feat)
         else:
             conclusion = f"stopped after {self.fit.max_effects} effects"
+        # the wheels' pitch deviations on the model with the effects found, as a baseline (pitch_baseline.py)
+        cur_raw, cur_feat, cur_score = pitch_round(
+            self, accepted, baseline_updates, cur_raw, cur_feat, cur_score
+        )
         model_after = self.runner.outputs(cur_raw)
         model_form["error_after_effects"] = float(cur_score.error)
         model_form["carrier_tolerance"] = float(getattr(self.cmp, "carrier_tolerance", ctol))

@@ -88,6 +88,10 @@ class FitSettings:
     #: model's times one fitted factor per harmonic in [0, 1] (the pulse's shape, not its depth;
     #: ``tooth_band_shape.py``, Sec. 8.63: the held-out x1.6 teeth); False: as in session 21
     tooth_band_shape: bool = True
+    #: once the search has ended, the wheels' pitch deviations read from the DTE's synchronous averages where
+    #: they stand out (significant, spread, not a smooth wave), added to the machine's baseline
+    #: (``pitch_baseline.py``, Sec. 8.68); False: not read
+    pitch_pattern: bool = True
 
 
 @dataclass
