@@ -10,13 +10,16 @@ model as the first round of ``gear-rotor-sim calibrate`` would fit it, in each o
   bearings' stiffness scale alone, their damping scale alone, both bearing scales);
 - ``all``: every update of the reference (what ``--baseline REFERENCE`` fits against).
 
-Printed per variant and form: the reported loss (``loss_reference="support"``), the shaft's loss, the chi^2
-of the fit, and the node's ``k_s / k_L`` and ``b`` on the nominal and the updated system.
+Printed per variant and form: the reported loss (``loss_reference="support"``), the phase, the shaft's loss,
+the whole chi^2 and the low orders' (``candidates_crack.low_order_chi2``: what the form and the phase are
+chosen on), and the node's ``k_s / k_L`` and ``b`` on the nominal and the updated system.
+``--no-dynamic`` fits the static share alone; ``--session23`` the phase on the whole chi^2 and every loss term
+on the nominal system (session 23's fit; docs/history/calibration_sessions.md Sec. 8.67).
 
 Usage::
 
     python benchmarks/crack_baseline_trace.py RECORD.csv --reference REF.reference.json \
-        [--variants none all ...]
+        [--variants none all ...] [--no-dynamic] [--session23]
 """
 
 from __future__ import annotations
