@@ -12,12 +12,6 @@ from __future__ import annotations
 
 import pytest
 
-from gear_rotor_sim.calibration.fit_types import FitSettings
-
-
-def test_the_mode_holding_inertia_is_the_default() -> None:
-    assert FitSettings().mesh_inertia_from_comb is True
-
 
 @pytest.mark.slow
 def test_a_pinion_tooth_at_4500_rpm_is_read_with_the_mode_held(tmp_path) -> None:

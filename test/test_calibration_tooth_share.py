@@ -12,14 +12,6 @@ from __future__ import annotations
 
 import pytest
 
-from gear_rotor_sim.calibration.fit_types import FitSettings
-
-
-def test_the_tooth_threshold_is_below_the_common_one() -> None:
-    fs = FitSettings()
-    assert fs.min_explained_tooth == pytest.approx(0.10)
-    assert fs.min_explained == pytest.approx(0.25)
-
 
 @pytest.mark.slow
 def test_the_held_out_shallow_gear_tooth_is_named_without_a_reference(tmp_path) -> None:
