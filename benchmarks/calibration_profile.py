@@ -7,7 +7,12 @@ and prints
 * the top functions by cumulative time and by own time, each with its share of the record's CPU;
 * the model runs (``ModelRunner.force_signals``) counted by the calibration function that asked for them:
   calls, runs actually simulated (cache misses) and the CPU inside those runs, and the feature passes
-  (``Comparison.features``) counted likewise.
+  (``Comparison.features``) counted likewise;
+* the candidate fits by effect type (their model runs included) and the scores (``Comparison.score``).
+
+cProfile's own cost falls on every Python call, so it inflates the Python-heavy parts (the scores, the
+candidates' linear algebra) against the compiled ones (the integrator): ``--no-profile`` keeps the
+counters alone, whose shares are those of a plain run.
 
 The JSON report is written to ``--save DIR`` as ``<stem>[.baseline].calibration.json`` (the names
 ``benchmarks/calibration_timing.py --compare`` and ``/tmp``-style comparisons read), so a profiled run can
@@ -16,7 +21,7 @@ be compared with an unprofiled one: the profiler changes the time, not the repor
 Usage::
 
     python benchmarks/calibration_profile.py RECORD.csv [--baseline REF] [--top 25] [--save DIR]
-        [--stats FILE]
+        [--stats FILE] [--no-profile]
 """
 
 from __future__ import annotations
@@ -63,16 +68,38 @@ class Counter:
     def __init__(self) -> None:
         self.runs: dict[str, list[float]] = defaultdict(lambda: [0, 0, 0.0])
         self.features: dict[str, list[float]] = defaultdict(lambda: [0, 0.0])
+        #: candidate fits by effect type (calls, CPU s with their model runs), and the scores
+        self.fits: dict[str, list[float]] = defaultdict(lambda: [0, 0.0])
+        self.scores = [0, 0.0]
         self._depth = 0
 
     @contextlib.contextmanager
     def installed(self) -> Iterator[None]:
-        from gear_rotor_sim.calibration import model_runner, residual
+        from gear_rotor_sim.calibration import fit_candidates, model_runner, residual
 
         runner_cls = model_runner.ModelRunner
         cmp_cls = residual.Comparison
+        fit_cls = fit_candidates.CandidateFitting
         orig_force, orig_feat = runner_cls.force_signals, cmp_cls.features
+        orig_fit, orig_score = fit_cls._fit_candidate, cmp_cls.score
         counter = self
+
+        def fit_candidate(cal: Any, e: Any, cur: Any) -> Any:
+            t = time.process_time()
+            try:
+                return orig_fit(cal, e, cur)
+            finally:
+                row = counter.fits[type(e).__name__]
+                row[0] += 1
+                row[1] += time.process_time() - t
+
+        def score(cmp: Any, *a: Any, **k: Any) -> Any:
+            t = time.process_time()
+            try:
+                return orig_score(cmp, *a, **k)
+            finally:
+                counter.scores[0] += 1
+                counter.scores[1] += time.process_time() - t
 
         def force_signals(runner: Any, effects: Any = ()) -> Any:
             who = asker()
@@ -101,10 +128,12 @@ class Counter:
                 row[1] += time.process_time() - t
 
         runner_cls.force_signals, cmp_cls.features = force_signals, features
+        fit_cls._fit_candidate, cmp_cls.score = fit_candidate, score
         try:
             yield
         finally:
             runner_cls.force_signals, cmp_cls.features = orig_force, orig_feat
+            fit_cls._fit_candidate, cmp_cls.score = orig_fit, orig_score
 
     def print(self, cpu: float, out: Callable[[str], None]) -> None:
         out("\nmodel runs by the function that asked (calls, simulated, CPU s, % CPU)")
@@ -118,6 +147,11 @@ class Counter:
         n = sum(r[0] for r in self.features.values())
         t = sum(r[1] for r in self.features.values())
         out(f"  {n:5d} {t:8.1f} {100 * t / cpu:5.1f} %  total")
+        out("\ncandidate fits by effect type, their model runs included (calls, CPU s, % CPU)")
+        for who, (n, t) in sorted(self.fits.items(), key=lambda kv: -kv[1][1]):
+            out(f"  {n:5d} {t:8.1f} {100 * t / cpu:5.1f} %  {who}")
+        n, t = self.scores
+        out(f"\nscores (Comparison.score): {n} calls, {t:.1f} s, {100 * t / cpu:.1f} %")
 
 
 def top(stats: pstats.Stats, key: str, n: int, cpu: float, out: Callable[[str], None]) -> None:
@@ -139,6 +173,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--top", type=int, default=25, help="functions listed per ranking (default 25)")
     p.add_argument("--save", type=Path, help="directory for the JSON report")
     p.add_argument("--stats", type=Path, help="write the raw cProfile statistics to FILE")
+    p.add_argument(
+        "--no-profile",
+        action="store_true",
+        help="no cProfile (its overhead inflates the Python-heavy parts): the record's CPU and the "
+        "counted model runs, feature passes, candidate fits and scores only",
+    )
     args = p.parse_args(argv)
 
     from gear_rotor_sim.cli import main as cli_main
@@ -151,7 +191,8 @@ def main(argv: list[str] | None = None) -> int:
     buf = io.StringIO()
     c0, w0 = time.process_time(), time.perf_counter()
     with counter.installed(), contextlib.redirect_stdout(buf):
-        prof.enable()
+        if not args.no_profile:
+            prof.enable()
         try:
             rc = cli_main(cli)
         finally:
@@ -163,15 +204,17 @@ def main(argv: list[str] | None = None) -> int:
     report = json.loads(buf.getvalue())
     print(
         f"{args.record.name}{' --baseline' if args.baseline else ''}: CPU {cpu:.1f} s, wall {wall:.1f} s "
-        f"(under the profiler), n_simulations {report.get('n_simulations')}, error "
+        f"({'no profiler' if args.no_profile else 'under the profiler'}), "
+        f"n_simulations {report.get('n_simulations')}, error "
         f"{report['error_before']:.6g} -> {report['error_after']:.6g}, effects "
         f"{[e['label'] for e in report['effects']]}"
     )
-    stats = pstats.Stats(prof)
-    if args.stats is not None:
-        stats.dump_stats(str(args.stats))
-    top(stats, "cumulative", args.top, cpu, print)
-    top(stats, "tottime", args.top, cpu, print)
+    if not args.no_profile:
+        stats = pstats.Stats(prof)
+        if args.stats is not None:
+            stats.dump_stats(str(args.stats))
+        top(stats, "cumulative", args.top, cpu, print)
+        top(stats, "tottime", args.top, cpu, print)
     counter.print(cpu, print)
     if args.save is not None:
         args.save.mkdir(parents=True, exist_ok=True)

@@ -12,6 +12,7 @@ correction). Between bins the Hann/flat-top windows lose at most 15 % / 0.1 % of
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -231,8 +232,17 @@ def analytic_band(x: np.ndarray, fs: float, band: tuple[float, float]) -> np.nda
     4th-order Butterworth band-pass, zero phase (forward-backward), then the Hilbert transform; its
     magnitude is the envelope used in bearing-fault analysis (here and in the calibration).
     """
-    sos = _sig.butter(4, band, btype="bandpass", fs=fs, output="sos")
+    sos = _bandpass_sos(float(band[0]), float(band[1]), float(fs)).copy()  # sosfilt wants it writable
     return _sig.hilbert(_sig.sosfiltfilt(sos, np.asarray(x, dtype=float) - np.mean(x)))
+
+
+@functools.lru_cache(maxsize=64)
+def _bandpass_sos(lo: float, hi: float, fs: float) -> np.ndarray:
+    """``butter(4, (lo, hi), "bandpass", fs=fs, output="sos")``, designed once per band and rate (the
+    calibration asks for the same few bands thousands of times per record); read-only: callers copy it."""
+    sos = _sig.butter(4, (lo, hi), btype="bandpass", fs=fs, output="sos")
+    sos.flags.writeable = False
+    return sos
 
 
 def synchronous_average(

@@ -17,6 +17,7 @@ monitor's indicators); they are not features of the fit.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -31,6 +32,16 @@ def _linear_interp_response(freq_ratio: np.ndarray) -> np.ndarray:
     """Mean amplitude response of linear interpolation at uniformly spread fractional positions:
     ``sinc^2(f / fs)`` (the triangular kernel's transform)."""
     return np.sinc(freq_ratio) ** 2
+
+
+@functools.lru_cache(maxsize=4)
+def _upsampling_taps(up: int) -> np.ndarray:
+    """The low-pass FIR ``scipy.signal.resample_poly(x, up, 1)`` designs on every call (``firwin`` of
+    ``20 up + 1`` taps, cut-off ``1 / up`` of Nyquist, Kaiser window beta 5, its default), designed once;
+    passed as its ``window`` it gives the same samples to the bit (resample_poly copies and scales it)."""
+    taps = _sig.firwin(2 * 10 * up + 1, 1.0 / up, window=("kaiser", 5.0))
+    taps.flags.writeable = False
+    return taps
 
 
 def synchronous_part(
@@ -80,7 +91,7 @@ def synchronous_part(
     up = 4  # band-limited 4x upsampling first: the linear interpolation to the angle grid then errs
     fs_up = up * fs  # by less than 1 % up to 0.25 fs
     spr = int(2 ** math.ceil(math.log2(max(fs_up / shaft_hz, 8.0))))
-    xu = _sig.resample_poly(x - np.mean(x), up, 1)
+    xu = _sig.resample_poly(x - np.mean(x), up, 1, window=_upsampling_taps(up))
     _, xa = resample_to_angle(xu, fs_up, shaft_hz * 60.0, spr)
     n_rev = (xa.size - 1) // spr
     if n_rev < 2:

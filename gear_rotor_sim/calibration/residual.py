@@ -63,6 +63,7 @@ from gear_rotor_sim.calibration.signal_features import (
     shaft_orders,
     time_and_spectrum_errors,
 )
+from gear_rotor_sim.calibration.spectra import analytic_spectra
 
 #: the names other modules, tests and benchmarks import from here (moved in session 16)
 __all__ = [
@@ -388,31 +389,36 @@ class Comparison(EnvelopeFeatures):
         non-synchronous part) does not depend on which tooth it is, while a circular shift of a
         non-periodic response difference would misplace it against the unshifted model.
         """
-        order = []
-        for cs in feats.order:
-            order.append(
-                [
-                    co * np.exp(-2j * np.pi * sh.orders * sh.ratio * self.speed_hz * dt)
-                    for co, sh in zip(cs, self.shafts, strict=True)
-                ]
-            )
+        # the same phasors for every channel; the analytic signals' spectra kept per feature set
+        # (a damaged tooth's and a crack's signatures are shifted to every mesh period: spectra.py)
+        turn = [np.exp(-2j * np.pi * sh.orders * sh.ratio * self.speed_hz * dt) for sh in self.shafts]
+        order = [[co * e for co, e in zip(cs, turn, strict=True)] for cs in feats.order]
         if not analytic:
             return ModelFeatures(order, feats.analytic, feats.static)
         out = []
-        for a in feats.analytic:
-            f = np.fft.fftfreq(a.size, 1.0 / self.fs)
-            out.append(np.fft.ifft(np.fft.fft(a) * np.exp(-2j * np.pi * f * dt)))
+        delay: dict[int, np.ndarray] = {}
+        for spec, f in analytic_spectra(feats.analytic, self.fs):
+            if f.size not in delay:
+                delay[f.size] = np.exp(-2j * np.pi * f * dt)
+            out.append(np.fft.ifft(spec * delay[f.size]))
         return ModelFeatures(order, out, feats.static)
 
     # ---------------------------------------------------------------------------------- scoring
     def carriers(self, s: int) -> np.ndarray:
         """Mask of the mesh-carrier orders of shaft ``s``: multiples of the tooth count of any gear
-        on the shaft (one per stage on the intermediate shaft of a multi-stage train)."""
+        on the shaft (one per stage on the intermediate shaft of a multi-stage train). Kept per shaft
+        object (read-only: the scores ask for it about a hundred thousand times per record)."""
         sh = self.shafts[s]
+        memo = self.__dict__.setdefault("_carrier_masks", {})
+        hit = memo.get(s)
+        if hit is not None and hit[0] is sh:
+            return hit[1]
         teeth = sh.carrier_teeth or ((sh.teeth,) if sh.teeth else ())
         mask = np.zeros(sh.orders.size, dtype=bool)
         for z in teeth:
             mask |= sh.orders % z == 0
+        mask.flags.writeable = False
+        memo[s] = (sh, mask)
         return mask
 
     def set_carrier_tolerance(self, tol: float) -> None:
@@ -555,11 +561,13 @@ class Comparison(EnvelopeFeatures):
                 x = self._xf[s]
                 mm = w * np.abs(m) ** 2
                 dm = w * np.real(np.conj(m) * self.d_order[c][s])
-                A += [[mm.sum(), (mm * x).sum()], [(mm * x).sum(), (mm * x * x).sum()]]
+                mx = mm * x  # each sum once (the same floats as forming it twice)
+                A += [[mm.sum(), mx.sum()], [mx.sum(), (mx * x).sum()]]
                 rhs += [dm.sum(), (dm * x).sum()]
                 k = self.carriers(s)
                 mk, dk, xk = mm[k], dm[k], x[k]
-                Ac += [[mk.sum(), (mk * xk).sum()], [(mk * xk).sum(), (mk * xk * xk).sum()]]
+                mxk = mk * xk
+                Ac += [[mk.sum(), mxk.sum()], [mxk.sum(), (mxk * xk).sum()]]
                 rc += [dk.sum(), (dk * xk).sum()]
             # a gain is only fitted where the model's order content stands out of the noise (summed
             # SNR^2 >= 100): a channel of pure noise (e.g. an axial force in a spur gearbox) keeps 1
