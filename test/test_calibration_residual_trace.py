@@ -26,6 +26,7 @@ def healthy(tmp_path_factory: pytest.TempPathFactory):
     return Calibrator(load_measurement(path)).run()
 
 
+@pytest.mark.acceptance
 def test_shares_are_the_scores_per_channel_errors(healthy):
     """Each channel's share of ``E^2`` from the score's per-channel normalised errors (``per_channel``:
     ``sqrt(chi2_c / n_c)`` per family) and feature counts: an independent route to the trace's sums."""
@@ -66,6 +67,7 @@ def test_profile_patterns():
     assert profile_patterns(np.zeros(6)) == []
 
 
+@pytest.mark.acceptance
 def test_cardan_joint_traced_to_the_input_shafts_even_orders(tmp_path):
     """A Cardan joint at the input (a fault the library does not have), 8000 rpm: the largest share of the
     final error is in the input shaft's low orders at a pinion-side channel, where the record holds more than
@@ -90,6 +92,7 @@ def test_cardan_joint_traced_to_the_input_shafts_even_orders(tmp_path):
     assert any("Cardan" in x for x in rd["outside_the_library"])
 
 
+@pytest.mark.acceptance
 def test_trace_changes_nothing_in_the_calibration(shared_records, pinion_tooth_calibration, monkeypatch):
     """The shared pinion-tooth calibration with and without the trace: the same JSON but for the field (and
     the count of model runs, which the second calibration takes from the runner's cache)."""
