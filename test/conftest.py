@@ -121,7 +121,9 @@ def reference_2000(shared_records: dict):
 @pytest.fixture(scope="session")
 def healthy_3000_calibration(shared_records: dict):
     """``Calibrator(load_measurement(record)).run()`` of the shared healthy 3000 rpm / 25 C record (seed 1,
-    no reference): read by test_calibration_independent_diagnosis.py (it claims nothing)."""
+    no reference): read by test_calibration_independent_diagnosis.py (it claims nothing) and
+    test_calibration_residual_trace.py (the trace's shares against the score's per-channel errors), which
+    calibrated a healthy 3000 rpm / 25 C record each (seeds 1 and 41) before session 25 (Sec. 8.72)."""
     from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.calibration.measurement import load_measurement
 

@@ -18,12 +18,11 @@ from lumped_gearbox import make_record, write_record
 
 
 @pytest.fixture(scope="module")
-def healthy(tmp_path_factory: pytest.TempPathFactory):
-    path = write_record(
-        tmp_path_factory.mktemp("trace") / "healthy.csv",
-        make_record(3000.0, 25.0, [], duration_s=0.6, seed=41),
-    )
-    return Calibrator(load_measurement(path)).run()
+def healthy(healthy_3000_calibration):
+    """A healthy 0.6 s record at 3000 rpm / 25 C calibrated without a reference: the session's
+    (``conftest.healthy_3000_calibration``, seed 1; this file made its own, seed 41, before session 25:
+    docs/history/calibration_sessions.md Sec. 8.72)."""
+    return healthy_3000_calibration
 
 
 @pytest.mark.acceptance
