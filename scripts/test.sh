@@ -13,7 +13,7 @@ echo "[test] ruff check"
 ruff check .
 ruff format --check . >/dev/null || { echo "[test] ruff format would change files:"; ruff format --check .; exit 1; }
 # Two stages, both always run: the unit tests (-m 'not acceptance'), then the acceptance tests
-# (-m acceptance: record-level calibrations, 35-140 s CPU each; pyproject.toml). Extra arguments go to
+# (-m acceptance: record-level calibrations, 35-140 s each at load; pyproject.toml). Extra arguments go to
 # both stages' pytest (after the stage's -m, so a -m of yours replaces it); a stage in which they select
 # no test (pytest exit status 5) counts as passed unless both select none. TEST_STAGES=unit or TEST_STAGES=acceptance runs one.
 # Two workers (pytest-xdist), each test file whole on one worker so that its module fixtures are
