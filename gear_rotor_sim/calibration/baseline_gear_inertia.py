@@ -1,0 +1,153 @@
+"""The mesh mode against a held reference: the gear pair's inertia read with the named tooth
+(docs/history/calibration_sessions.md Sec. 8.71; issue 11).
+
+A reference record fixes what its own features identify. At 2000 rpm the third mesh harmonic lies at
+2.9 kHz, far below either model's mesh mode (FE 5.3-6.7 kHz, ``lumped_gearbox`` 6.4 kHz at 75 C), so the
+reference's mesh stiffness scale (x1.199 on the table's reference) fixes the static compliance ``F / k``
+and nothing of the mode. A record at 4500 rpm places its mesh harmonics' sidebands on the mode (6.1-7.0 kHz
+for the third), where a damaged tooth's signature is amplified by it (Sec. 8.35). The FE mode on the
+reference-updated machine is not the record's, and the tooth is fitted at the wrong dynamic amplification
+(Sec. 8.69: error ratio 0.66 on the held-out 4500 rpm pinion tooth, the gear tooth not named).
+
+With ``F / k`` held, the mode has one free parameter left: the inertia of the gear pair. The gear discs'
+mass and inertia times ``s`` (``faults.mesh_inertia.GearInertia``, Sun et al. 2021 Eqs 19-20) move the
+mesh mode ``sqrt(k / m_e)`` by ``1 / sqrt(s)`` and leave every static quantity as it was. Without a
+reference the same reading is Sec. 8.66's: the record's own mesh set places the mode and the DTE comb sets
+``F / k`` through ``MeshInertia``; against a reference ``F / k`` is the reference's and the record places
+the mode through ``s``.
+
+The reading (:func:`tooth_with_mode_placed`, ``FitSettings.gear_inertia_with_reference``): when a damaged
+tooth is verified against a held reference where the teeth stay in contact, the whole record's balanced
+chi^2 with the tooth at its depth is scored at the inertia scales of :data:`SCALES` (full runs), ``s`` read
+at the minimum of a parabola in ``log s`` through the three best, and the tooth's depth refined again on
+the machine with ``GearInertia(s)``. That machine is taken (``s`` goes with the tooth into
+``baseline_updates``, never an effect) only if
+
+1. the tooth with it explains the whole record better than without it by more than one parameter's
+   penalty ``ln N`` (BIC, Schwarz 1978), and
+2. the tooth explains the record beyond that machine's own healthy run by the acceptance thresholds
+   (Delta BIC and share of the excess): the inertia alone must not carry the claim.
+
+Why the tooth and not the healthy model: on the records measured (Sec. 8.71) the healthy model's chi^2 is
+nearly flat in ``s`` where a tooth's residual dominates the record (0.2 % over ``s`` 0.5-1 on the 4500 rpm
+pinion tooth record without the tooth, a factor 3.5 with it), because the carriers' misfit is weighted by
+the reference's model-form tolerance (0.5) and what the mode moves most is the tooth's sidebands at the
+third mesh harmonic. Where no tooth is verified nothing changes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gear_rotor_sim.calibration.candidates_tooth import ratio_depth_in_contact
+from gear_rotor_sim.calibration.candidates_tooth_share import min_share
+from gear_rotor_sim.calibration.mesh_mode import mesh_mode_hz
+from gear_rotor_sim.faults import Effect, MeshStiffnessDamping, ToothDamage
+from gear_rotor_sim.faults.mesh_inertia import GearInertia, MeshInertia
+
+if TYPE_CHECKING:
+    from gear_rotor_sim.calibration.fit import Calibrator, CandidateFit
+
+#: gear inertia scales scored with the tooth (1, the reference's machine, is the caller's run); within
+#: ``GearInertia``'s bounds 0.5-2, both sides of 1
+SCALES: tuple[float, ...] = (1.25, 0.8, 0.65, 0.5)
+
+
+def mode_placement_applies(cal: Calibrator, accepted: Sequence[Effect]) -> bool:
+    """Against a held reference that carries a mesh stiffness scale, order features, the healthy model's
+    teeth in contact, and no inertia set yet (on the machine or among ``accepted``)."""
+    if not cal.fit.gear_inertia_with_reference or cal.fit_baseline:
+        return False
+    if "order" not in cal.cmp.families or not ratio_depth_in_contact(cal):
+        return False
+    if not any(isinstance(b, MeshStiffnessDamping) for b in cal.baseline):
+        return False
+    return not any(isinstance(b, GearInertia | MeshInertia) for b in (*cal.baseline, *accepted))
+
+
+def scale_at_minimum(points: list[tuple[float, float]], lower: float, upper: float) -> float:
+    """The inertia scale at the minimum of the parabola in ``log s`` through the three lowest of
+    ``points`` ``(s, chi2)``; the best point where the parabola has no minimum; clipped to the bounds."""
+    best = sorted(points, key=lambda p: p[1])[:3]
+    xs = np.log([p[0] for p in best])
+    vs = np.array([p[1] for p in best])
+    x = float(xs[0])
+    if len(best) == 3 and np.ptp(xs) > 0:
+        c = np.polyfit(xs - xs[0], vs, 2)
+        if c[0] > 0:
+            # the vertex, within the span of the three points (no extrapolation past the scored scales)
+            x = float(np.clip(-c[1] / (2 * c[0]) + xs[0], xs.min(), xs.max()))
+    return float(np.clip(math.exp(x), lower, upper))
+
+
+def tooth_with_mode_placed(
+    cal: Calibrator, f: CandidateFit, accepted: Sequence[Effect]
+) -> tuple[CandidateFit | None, CandidateFit | None]:
+    """The round's tooth candidate ``f`` verified on the reference's machine and on the machine whose gear
+    inertia places the mesh mode where the record shows it (module docstring).
+
+    Parameters
+    ----------
+    cal : Calibrator
+        The calibration against a held reference (:func:`mode_placement_applies`).
+    f : CandidateFit
+        A damaged tooth's candidate from the round's ranking (tooth and depth of the shifted-signature
+        search, its parameter count ``k``).
+    accepted : sequence of Effect
+        Effects accepted so far.
+
+    Returns
+    -------
+    (CandidateFit or None, CandidateFit or None)
+        The tooth refined on the current machine (``Calibrator._refine``; None where the scan's least
+        chi^2 is at the reference's inertia and it was not run), and the tooth refined with
+        ``GearInertia(s)``, which it carries as ``baseline_set`` (None where that machine is not taken).
+    """
+    e = f.effect
+    if not isinstance(e, ToothDamage):
+        return None, None
+    spec = GearInertia.specs[0]
+    pts: list[tuple[float, float]] = []
+    for s in (1.0, *SCALES):
+        pre = (GearInertia(inertia_scale=s), *accepted) if s != 1.0 else tuple(accepted)
+        raw = cal._raw((*pre, e))
+        pts.append((s, float(cal.cmp.score(cal._tooth_features(raw, e, pre)).balanced_chi2)))
+    s = round(scale_at_minimum(pts, spec.lower, spec.upper), 3)
+    scored = ", ".join(f"x{a:g} {b:.4g}" for a, b in sorted(pts))
+    temp = cal.m.operating_point.temperature_c
+    f0 = mesh_mode_hz(cal.runner.cfg, temp, cal.baseline)
+    head = (
+        f"{e.label}: gear inertia against the reference, whole record with tooth {e.tooth} at depth "
+        f"{e.depth:.3g} by inertia scale: {scored}"
+    )
+    if abs(s - 1.0) < 0.02:
+        cal.notes.append(head + f"; least at x{s:g}: the reference's machine kept (FE mesh mode {f0:.0f} Hz)")
+        return None, None
+    gi = GearInertia(inertia_scale=s)
+    plain = cal._refine(f, list(accepted))
+    placed = cal._refine(f, [gi, *accepted])
+    chi_ref, chi_s = float(plain.score.balanced_chi2), float(placed.score.balanced_chi2)
+    f_s = mesh_mode_hz(cal.runner.cfg, temp, [*cal.baseline, gi])
+    a, b = placed.effect, plain.effect
+    text = (
+        f"{head}; x{s:g} (FE mesh mode {f0:.0f} -> {f_s:.0f} Hz): tooth {a.tooth} at depth {a.depth:.3g}, "
+        f"chi2 {chi_s:.5g} against {chi_ref:.5g} on the reference's machine (tooth {b.tooth}, depth "
+        f"{b.depth:.3g})"
+    )
+    if not chi_s + math.log(cal.n_total) < chi_ref:
+        cal.notes.append(text + "; not taken (not better by the parameter's ln N)")
+        return plain, None
+    dbic, share = cal._gain_beyond_baseline((gi, *accepted), placed.score, f.k)
+    if not (dbic > cal.fit.bic_threshold and share >= min_share(cal, placed.effect)):
+        cal.notes.append(
+            text + f"; not taken: beyond that machine's healthy run the tooth explains {share:.2f} of the "
+            f"excess (dBIC {dbic:.4g})"
+        )
+        return plain, None
+    cal.notes.append(text + f"; taken (beyond that machine's healthy run: {share:.2f} of the excess)")
+    return plain, dataclasses.replace(placed, baseline_set=gi)
