@@ -56,6 +56,8 @@ if TYPE_CHECKING:
 #: gear inertia scales scored with the tooth (1, the reference's machine, is the caller's run); within
 #: ``GearInertia``'s bounds 0.5-2, both sides of 1
 SCALES: tuple[float, ...] = (1.25, 0.8, 0.65, 0.5)
+#: depths scored on the machine with the inertia before the refinement: thirds of the library's range (0-0.9)
+DEPTHS: tuple[float, ...] = (0.15, 0.45, 0.75)
 
 
 def mode_placement_applies(cal: Calibrator, accepted: Sequence[Effect]) -> bool:
@@ -70,19 +72,27 @@ def mode_placement_applies(cal: Calibrator, accepted: Sequence[Effect]) -> bool:
     return not any(isinstance(b, GearInertia | MeshInertia) for b in (*cal.baseline, *accepted))
 
 
-def scale_at_minimum(points: list[tuple[float, float]], lower: float, upper: float) -> float:
-    """The inertia scale at the minimum of the parabola in ``log s`` through the three lowest of
-    ``points`` ``(s, chi2)``; the best point where the parabola has no minimum; clipped to the bounds."""
+def vertex(points: Sequence[tuple[float, float]], lower: float, upper: float, log: bool = False) -> float:
+    """The abscissa at the minimum of the parabola (in ``log x`` if ``log``) through the three lowest of
+    ``points`` ``(x, chi2)``, within their span; the best point where the parabola has no minimum;
+    clipped to ``[lower, upper]``."""
     best = sorted(points, key=lambda p: p[1])[:3]
-    xs = np.log([p[0] for p in best])
+    xs = np.array([p[0] for p in best], dtype=float)
+    xs = np.log(xs) if log else xs
     vs = np.array([p[1] for p in best])
     x = float(xs[0])
     if len(best) == 3 and np.ptp(xs) > 0:
         c = np.polyfit(xs - xs[0], vs, 2)
         if c[0] > 0:
-            # the vertex, within the span of the three points (no extrapolation past the scored scales)
+            # the vertex, within the span of the three points (no extrapolation past the scored ones)
             x = float(np.clip(-c[1] / (2 * c[0]) + xs[0], xs.min(), xs.max()))
-    return float(np.clip(math.exp(x), lower, upper))
+    return float(np.clip(math.exp(x) if log else x, lower, upper))
+
+
+def scale_at_minimum(points: Sequence[tuple[float, float]], lower: float, upper: float) -> float:
+    """The inertia scale at the minimum of the parabola in ``log s`` through the three lowest of
+    ``points`` ``(s, chi2)`` (:func:`vertex`)."""
+    return vertex(points, lower, upper, log=True)
 
 
 def tooth_with_mode_placed(
@@ -130,7 +140,18 @@ def tooth_with_mode_placed(
         return None, None
     gi = GearInertia(inertia_scale=s)
     plain = cal._refine(f, list(accepted))
-    placed = cal._refine(f, [gi, *accepted])
+    # the depth on that machine from a coarse grid over the library's range first: the ranking's depth
+    # was fitted at the misplaced mode (0.043 for 0.4 on a 0.6 s record of the 4500 rpm gear tooth)
+    lo, hi = (float(v) for v in (ToothDamage.specs[0].lower, ToothDamage.specs[0].upper))
+    at_depth = []
+    for d in sorted({*DEPTHS, float(e.depth)}):
+        pre = (gi, *accepted)
+        ed = dataclasses.replace(e, depth=d)
+        at_depth.append(
+            (d, float(cal.cmp.score(cal._tooth_features(cal._raw((*pre, ed)), ed, pre)).balanced_chi2))
+        )
+    start = dataclasses.replace(e, depth=round(vertex(at_depth, lo, hi), 4))
+    placed = cal._refine(dataclasses.replace(f, effect=start), [gi, *accepted])
     chi_ref, chi_s = float(plain.score.balanced_chi2), float(placed.score.balanced_chi2)
     f_s = mesh_mode_hz(cal.runner.cfg, temp, [*cal.baseline, gi])
     a, b = placed.effect, plain.effect
