@@ -11,7 +11,9 @@ and discovery is kept to this host. Set before any test module imports rclpy; ch
 
 from __future__ import annotations
 
+import functools
 import os
+from pathlib import Path
 
 import pytest
 
@@ -31,11 +33,51 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 # files, are run once per test session (docs/history/calibration_sessions.md Sec. 8.39). Each test still
 # asserts its own criteria on the shared result; the result objects are only read.
 
+#: the session fixtures below that calibrate (or fit a reference on) a shared record
+SHARED_CALIBRATIONS = ("pinion_tooth_calibration", "reference_2000", "healthy_3000_calibration")
+
+
+@functools.cache
+def reads_a_shared_calibration(path: Path) -> bool:
+    """Whether the test file at ``path`` names one of :data:`SHARED_CALIBRATIONS` (its tests ask for it)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError:
+        return False
+    return any(name in text for name in SHARED_CALIBRATIONS)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | None:
+    """``--dist loadfile`` (``scripts/test.sh``) with the files that read a shared calibration as one scope.
+
+    Under pytest-xdist each worker is a session of its own and computes the session fixtures it is asked
+    for: with plain ``loadfile`` both workers calibrated the shared pinion-tooth record when files reading
+    it fell on both (session 24's suite: 100 s and 81 s of set-up). Here every other file stays whole on
+    one worker (its module fixtures computed once), and the files of :func:`reads_a_shared_calibration` go
+    together to one worker, where each shared calibration runs once and model runs of the same operating
+    point come from that process's cache (docs/history/calibration_sessions.md Sec. 8.72). Other ``--dist``
+    modes keep xdist's own scheduler."""
+    if config.getoption("dist", None) != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    root = config.rootpath
+
+    class SharedCalibrationScheduling(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            file = nodeid.split("::", 1)[0]
+            return "shared calibrations" if reads_a_shared_calibration(root / file) else file
+
+    return SharedCalibrationScheduling(config, log)
+
+
 #: the 0.6 s ``lumped_gearbox`` records shared between test files: (speed rpm, temperature C, faults,
 #: seed), as test_calibration_independent_diagnosis.py made them
 SHARED_RECORDS = {
     "pinion_tooth": (3000.0, 25.0, ("tooth_damage:wheel=pinion,tooth=7,depth=0.4",), 7),
     "healthy_2000": (2000.0, 25.0, (), 5),
+    "healthy_3000": (3000.0, 25.0, (), 1),
 }
 SHARED_DURATION_S = 0.6
 
@@ -74,3 +116,15 @@ def reference_2000(shared_records: dict):
 
     path = shared_records["healthy_2000"]
     return fit_reference_baseline(load_measurement(path), source=str(path))
+
+
+@pytest.fixture(scope="session")
+def healthy_3000_calibration(shared_records: dict):
+    """``Calibrator(load_measurement(record)).run()`` of the shared healthy 3000 rpm / 25 C record (seed 1,
+    no reference): read by test_calibration_independent_diagnosis.py (it claims nothing) and
+    test_calibration_residual_trace.py (the trace's shares against the score's per-channel errors), which
+    calibrated a healthy 3000 rpm / 25 C record each (seeds 1 and 41) before session 25 (Sec. 8.72)."""
+    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.measurement import load_measurement
+
+    return Calibrator(load_measurement(shared_records["healthy_3000"])).run()

@@ -5,6 +5,8 @@ in for until session 22 is in the library now and named: ``test_calibration_crac
 
 from __future__ import annotations
 
+import pytest
+
 from gear_rotor_sim.calibration.claim_check import SUSPECT_CONFIDENCE, claim_check, own_families
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
@@ -149,6 +151,7 @@ def test_own_order_spread_over_the_lateral_channels_on_set_traces() -> None:
     assert claim_check(unb, tr, fams)["tests"] == ["own_order"]
 
 
+@pytest.mark.acceptance
 def test_true_pinion_tooth_claim_stays_confident(pinion_tooth_calibration) -> None:
     """The shared 0.6 s pinion-tooth record (tooth 7, depth 0.4, 3000 rpm, no reference): named, found."""
     r = pinion_tooth_calibration
@@ -159,6 +162,7 @@ def test_true_pinion_tooth_claim_stays_confident(pinion_tooth_calibration) -> No
     assert "not a confident finding" not in r.conclusion
 
 
+@pytest.mark.acceptance
 def test_misalignment_forced_by_a_loose_housing_is_not_a_confident_finding(tmp_path) -> None:
     """A loose bearing-2 housing lifted by the pinion's 3e-4 kg m unbalance (8000 rpm, 0.6 s, loss 0.9, 2 um
     of bolt clearance; a fault built after the check): the calibration claims the driving unbalance and a

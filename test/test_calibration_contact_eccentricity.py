@@ -98,6 +98,7 @@ def test_settled_window_of_an_eccentric_pinion_matches_the_run_without_rule_swit
     assert abs(head_rms(run.data[:, 0]) - ref) <= 0.2 * ref, (head_rms(run.data[:, 0]), ref)
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_pinion_eccentricity_named_first_within_25_percent(tmp_path: Path) -> None:
     """``lumped_gearbox`` record (0.6 s, 3000 rpm, 25 C, 15 um pinion eccentricity at 0.5 rad, seed

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from gear_rotor_sim.calibration.fit import Calibrator
 from gear_rotor_sim.calibration.measurement import load_measurement
@@ -33,6 +34,7 @@ def _crack_named_with_its_loss_and_phase(r):
     return first
 
 
+@pytest.mark.acceptance
 def test_crack_of_the_independent_generator_is_named_with_its_loss_and_phase(tmp_path) -> None:
     """A breathing crack on the pinion shaft of the independent lumped gearbox (its own model: the crack on
     the lumped lateral spring, breathing on the instantaneous deflection; 3000 rpm, 0.6 s): the library's
@@ -48,6 +50,7 @@ def test_crack_of_the_independent_generator_is_named_with_its_loss_and_phase(tmp
     assert not any(e.label.startswith("tooth_damage") for e in r.effects)
 
 
+@pytest.mark.acceptance
 def test_crack_loss_against_a_reference_baseline(tmp_path, reference_2000) -> None:
     """The same crack record diagnosed against the machine's baseline fitted on a healthy 2000 rpm record of
     the generator (``--baseline``, the shared 0.6 s reference of conftest.py: its bearing scale lowers the

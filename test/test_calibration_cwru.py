@@ -73,6 +73,7 @@ def test_ball_file_is_reported_honestly() -> None:
     assert r.conclusion
 
 
+@pytest.mark.acceptance
 def test_cli_json_contract(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     from gear_rotor_sim.cli import main
 

@@ -237,6 +237,7 @@ def test_a_dropout_is_refused_naming_the_column_or_cut_with_allow_gaps(shared_re
     assert m.data.shape[0] == len(rows) - 4400
 
 
+@pytest.mark.acceptance
 def test_a_record_with_spikes_is_diagnosed_as_without_them(spiked_record, pinion_tooth_calibration):
     from gear_rotor_sim.calibration.fit import Calibrator
     from gear_rotor_sim.calibration.measurement import load_measurement

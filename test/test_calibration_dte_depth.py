@@ -83,6 +83,7 @@ def test_reading_stays_on_the_rising_branch() -> None:
     assert fd.read_rising(0.5, depths, vals) == 0.0
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_pinion_tooth_depth_from_the_dte_comb_on_an_independent_record(pinion_tooth_calibration) -> None:
     """Pinion tooth 7 at depth 0.4 on a 0.6 s ``lumped_gearbox`` record at 3000 rpm (the records of
@@ -101,6 +102,7 @@ def test_pinion_tooth_depth_from_the_dte_comb_on_an_independent_record(pinion_to
     assert r.error_after <= 0.5 * r.error_before
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_dte_depth_against_a_held_reference_on_the_fe_models_own_record(tmp_path) -> None:
     """The FE model's own damaged pinion tooth (7, depth 0.4; 3000 rpm, 0.6 s, the issue-6 channels, 3 %

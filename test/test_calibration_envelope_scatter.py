@@ -96,6 +96,7 @@ def gear_tooth_record(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return write_record(tmp_path_factory.mktemp("rattle_gear") / "gear_tooth.csv", rec)
 
 
+@pytest.mark.acceptance
 def test_rattle_gear_tooth_named_with_its_depth_and_the_error_halved(gear_tooth_record: Path) -> None:
     """Measured: tooth 5, depth 0.381, error 2.318 -> 1.073 (ratio 0.463; 1.175, ratio 0.507, with one
     path factor per channel before the banded path of docs/history/calibration_sessions.md Sec. 8.37)."""

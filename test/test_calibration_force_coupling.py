@@ -53,6 +53,7 @@ def test_no_loaded_radial_channel_no_reading():
     assert got == []
 
 
+@pytest.mark.acceptance
 def test_an_ac_coupled_record_is_named_and_its_force_means_left_out(tmp_path):
     """A 0.6 s healthy 3000 rpm record at 125 C whose three force sensors are high-passed at 0.5 Hz (the
     generator's ``sensors``): the radial reactions and the 1.8 kN thermal axial load are gone. The issue names

@@ -30,6 +30,7 @@ def test_scale_at_minimum_is_the_parabola_vertex_in_log_scale() -> None:
 REFERENCE_SETS = ((1.21102122454806, 1.0), (0.5221489115786253, 1.3148622123286446))
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_gear_tooth_at_4500rpm_against_the_reference(tmp_path) -> None:
     """Tooth 5 of the gear at depth 0.4, 0.6 s at 4500 rpm / 75 C (seed 128): with the rule the gear inertia

@@ -32,6 +32,7 @@ def diagnosis(tmp_path_factory: pytest.TempPathFactory):
     return rec, Calibrator(load_measurement(path)).run()
 
 
+@pytest.mark.acceptance
 def test_gear_eccentricity_off_the_table_severity_is_read_without_the_carrier_gain(diagnosis) -> None:
     """Named first, the error at least halved, and the eccentricity within 12.5 %: half the 25 %
     that the carriers' gain at its 0.8 bound put on it (measured before: 40.4 um, +26 %; after:
@@ -45,6 +46,7 @@ def test_gear_eccentricity_off_the_table_severity_is_read_without_the_carrier_ga
     assert r.error_after <= 0.5 * r.error_before, (r.error_before, r.error_after)
 
 
+@pytest.mark.acceptance
 def test_shaft_order_gains_are_the_generators_sensor_gains(diagnosis) -> None:
     """The gain the low shaft orders take: the generator's gain (its truth) at the radial bearing
     forces, read from their equilibrium means within 3 % (the generator's gain spread; measured

@@ -31,6 +31,7 @@ from gear_rotor_sim.calibration.measurement import load_measurement
 DURATION_S = 0.6  # 30 input revolutions at 3000 rpm: 17 envelope segments of 0.1 s
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_outer_race_defect_named_first_with_its_force(tmp_path: Path) -> None:
     from lumped_gearbox import make_record, write_record

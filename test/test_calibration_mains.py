@@ -10,6 +10,7 @@ import math
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from gear_rotor_sim.calibration import mains_check as mc
 
@@ -54,6 +55,7 @@ def test_a_line_beside_the_mains_frequency_is_not_mains(shared_records):
     assert mc.off_order_lines(off, y, fs, names, [("input", sp), ("output", sp * 29.0 / 49.0)]) == []
 
 
+@pytest.mark.acceptance
 def test_a_line_on_a_shaft_order_is_named_only_when_the_model_leaves_it_unexplained(
     pinion_tooth_calibration,
 ):

@@ -168,6 +168,7 @@ def test_gear_misalignment_static_force_per_stage_equals_the_static_solution() -
     assert fe[1] / fe[0] > 1.9  # the stages carry different forces: a shared value would be wrong
 
 
+@pytest.mark.acceptance
 def test_calibrate_names_the_damaged_tooth_on_the_second_stage_gear(tmp_path: Path) -> None:
     """record (two-stage example, damaged tooth 5 of mesh 2's gear) -> calibrate --json: first
     effect tooth_damage on mesh 2, wheel gear, tooth 5, depth within 25 %."""

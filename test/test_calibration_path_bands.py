@@ -106,6 +106,7 @@ MESH_SCALES = (1.199073162934285, 1.0)
 BEARING_SCALES = (0.5206146842535879, 1.2786617725483929)
 
 
+@pytest.mark.acceptance
 def test_acceptance_row_rattle_gear_tooth_against_the_reference(tmp_path: Path) -> None:
     """Issue 11's table row ``rattle_tooth_damage_gear`` with ``--baseline`` (2 s, seed 23: the benchmark's
     record), calibrated as the CLI does with the benchmark's reference held: gear tooth 5 named first,

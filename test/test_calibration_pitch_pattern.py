@@ -91,6 +91,7 @@ def test_one_damaged_tooth_is_not_a_pattern(records) -> None:
     assert abs(held.positions_m[6]) < 1e-12
 
 
+@pytest.mark.acceptance
 def test_calibration_adds_the_pattern_after_the_search(tmp_path) -> None:
     """A quality-7 healthy record (0.6 s): nothing claimed, the pattern reported as a baseline update with the
     generator's flanks, lowering the error; without it (the step removed) the test fails."""

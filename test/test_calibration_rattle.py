@@ -144,6 +144,7 @@ def _calibrate(path: Path, wheels: tuple[str, ...]):
     return cal, cal.run()
 
 
+@pytest.mark.acceptance
 def test_rattle_healthy_claims_no_tooth_and_damaged_pinion_tooth_is_named(records) -> None:
     cal, res = _calibrate(records["healthy"], ("pinion",))
     assert cal.runner.n_model < cal.m.n_samples  # one hunting period simulated, not the record
@@ -222,6 +223,7 @@ def test_locked_family_is_one_family_of_order_three_or_more() -> None:
     assert locked_families(noise, orders, 29) == []
 
 
+@pytest.mark.acceptance
 def test_rattle_unbalance_named_first_within_a_quarter(records) -> None:
     """An unbalance of the pinion (3e-4 kg m) where the teeth separate: named first within 25 % and
     the error at least halved. Before the rattle rules (features_rattle.py) the sensor gains ran to
@@ -238,6 +240,7 @@ def test_rattle_unbalance_named_first_within_a_quarter(records) -> None:
     assert res.error_after <= 0.5 * res.error_before
 
 
+@pytest.mark.acceptance
 def test_rattle_misalignment_angle_from_the_axial_force_and_wear_not_read_as_a_tooth(records) -> None:
     """A 1 mrad gear misalignment where the teeth separate: its axial force at gear order 1 (0.72 N,
     SNR 57 on a 2 s record) is the same in both models, its edge-loaded mesh part is not (radial

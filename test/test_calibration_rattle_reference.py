@@ -173,6 +173,7 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return out
 
 
+@pytest.mark.acceptance
 def test_pinion_tooth_against_a_held_reference_where_the_teeth_separate(records) -> None:
     """Healthy 8000 rpm record against the 2000 rpm reference: no tooth. Damaged pinion tooth 7 (depth
     0.4): named on its tooth within 25 %, error at least halved. Numbers measured on the point-sampled

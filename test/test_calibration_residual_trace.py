@@ -18,14 +18,14 @@ from lumped_gearbox import make_record, write_record
 
 
 @pytest.fixture(scope="module")
-def healthy(tmp_path_factory: pytest.TempPathFactory):
-    path = write_record(
-        tmp_path_factory.mktemp("trace") / "healthy.csv",
-        make_record(3000.0, 25.0, [], duration_s=0.6, seed=41),
-    )
-    return Calibrator(load_measurement(path)).run()
+def healthy(healthy_3000_calibration):
+    """A healthy 0.6 s record at 3000 rpm / 25 C calibrated without a reference: the session's
+    (``conftest.healthy_3000_calibration``, seed 1; this file made its own, seed 41, before session 25:
+    docs/history/calibration_sessions.md Sec. 8.72)."""
+    return healthy_3000_calibration
 
 
+@pytest.mark.acceptance
 def test_shares_are_the_scores_per_channel_errors(healthy):
     """Each channel's share of ``E^2`` from the score's per-channel normalised errors (``per_channel``:
     ``sqrt(chi2_c / n_c)`` per family) and feature counts: an independent route to the trace's sums."""
@@ -66,6 +66,7 @@ def test_profile_patterns():
     assert profile_patterns(np.zeros(6)) == []
 
 
+@pytest.mark.acceptance
 def test_cardan_joint_traced_to_the_input_shafts_even_orders(tmp_path):
     """A Cardan joint at the input (a fault the library does not have), 8000 rpm: the largest share of the
     final error is in the input shaft's low orders at a pinion-side channel, where the record holds more than
@@ -90,6 +91,7 @@ def test_cardan_joint_traced_to_the_input_shafts_even_orders(tmp_path):
     assert any("Cardan" in x for x in rd["outside_the_library"])
 
 
+@pytest.mark.acceptance
 def test_trace_changes_nothing_in_the_calibration(shared_records, pinion_tooth_calibration, monkeypatch):
     """The shared pinion-tooth calibration with and without the trace: the same JSON but for the field (and
     the count of model runs, which the second calibration takes from the runner's cache)."""

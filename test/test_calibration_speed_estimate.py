@@ -122,6 +122,7 @@ def test_record_at_its_declared_speed_is_left_unchanged(shared_records: dict[str
     assert check_operating_speed(m, load_config("cwru_rig")) == (m, None)
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_cli_names_the_tooth_of_a_record_one_percent_off(tooth_3030: Path) -> None:
     p = subprocess.run(

@@ -216,6 +216,7 @@ def test_generator_profile_follows_the_prescribed_angle() -> None:
         SpeedProfile(drift_pct=12.0)
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_cli_names_the_tooth_of_a_record_whose_speed_fluctuates(tmp_path: Path) -> None:
     from lumped_gearbox import make_record, write_record

@@ -105,6 +105,7 @@ def test_fit_reads_the_model_signatures_excess_per_harmonic(over, expect) -> Non
     np.testing.assert_allclose(cmp.score(feats).balanced_chi2, shape.chi2_after)
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_a_deep_pinion_tooth_is_read_at_its_comb_depth_with_the_shape_fitted(tmp_path) -> None:
     """The held-out x1.6 pinion tooth (tooth 3, depth 0.64, 3000 rpm, seed 106 of

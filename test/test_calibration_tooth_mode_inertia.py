@@ -13,6 +13,7 @@ from __future__ import annotations
 import pytest
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_a_pinion_tooth_at_4500_rpm_is_read_with_the_mode_held(tmp_path) -> None:
     """The held-out 4500 rpm / 75 C pinion tooth (tooth 7, depth 0.4, seed 127 of

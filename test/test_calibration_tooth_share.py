@@ -13,6 +13,7 @@ from __future__ import annotations
 import pytest
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_the_held_out_shallow_gear_tooth_is_named_without_a_reference(tmp_path) -> None:
     """The held-out x0.6 gear tooth (``tooth_damage:wheel=gear,tooth=31,depth=0.24``, seed 107 of

@@ -142,6 +142,7 @@ def test_an_accelerometer_offset_is_reported_and_a_zero_mean_vibration_is_not():
 FIT_REL = 1e-6
 
 
+@pytest.mark.acceptance
 def test_a_reversed_accelerometer_is_read_back_and_diagnosed_as_declared(
     shared_records, pinion_tooth_calibration
 ):

@@ -34,6 +34,7 @@ def worn_record(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return write_record(tmp_path_factory.mktemp("wear_contact") / "worn.csv", rec)
 
 
+@pytest.mark.acceptance
 def test_contact_wear_is_read_from_the_dte_mean_after_the_baseline_update(worn_record: Path) -> None:
     r = Calibrator(load_measurement(worn_record)).run()
     found = [(e.label, e.parameters) for e in r.effects]

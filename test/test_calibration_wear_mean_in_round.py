@@ -45,6 +45,7 @@ def _wear(worn_record: Path, on: bool) -> tuple[float, float, float]:
     return float(r.effects[0].parameters["wear_depth_m"]), r.error_before, r.error_after
 
 
+@pytest.mark.acceptance
 def test_wear_leading_round_zero_takes_the_depth_of_the_dte_mean(worn_record: Path) -> None:
     depth, before, after = _wear(worn_record, True)
     assert abs(depth - TRUTH_M) <= 0.25 * TRUTH_M, depth

@@ -75,6 +75,7 @@ def test_grown_start_is_whole_hunting_periods() -> None:
     assert grown_start_samples(None, FS) == 0
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_worn_rattle_record_is_not_read_as_a_damaged_tooth_against_a_reference(
     tmp_path, reference_2000

@@ -111,6 +111,7 @@ def test_saved_rattle_amplitude_reads_back_and_is_validated(tmp_path: Path) -> N
         path = ref.save(tmp_path / "machine.json")
 
 
+@pytest.mark.acceptance
 @pytest.mark.slow
 def test_wear_at_rattle_read_against_a_healthy_reference_at_the_same_speed(tmp_path: Path) -> None:
     """1 s lumped records at 8000 rpm against a healthy 8000 rpm reference of the same machine (fitted

@@ -8,9 +8,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 FAULTS_YAML = "faults: [{type: tooth_damage, wheel: gear, tooth: 5, depth: 0.3}]\n"
 
 
+@pytest.mark.acceptance
 def test_calibrate_names_the_injected_tooth_damage(tmp_path: Path) -> None:
     faults = tmp_path / "FAULTS.yaml"
     faults.write_text(FAULTS_YAML, encoding="utf-8")
