@@ -84,6 +84,12 @@ class FitSettings:
     #: shape of Sec. 8.63 the 4500 rpm / 75 C teeth read -6 % / -5 % and halve the error); False: the
     #: DTE depth on the record's mesh set (+43 % / +42 % there)
     mesh_inertia_from_comb: bool = True
+    #: against a held reference, teeth in contact: a verified damaged tooth refined again with the gear
+    #: pair's inertia that places the mesh mode where the record shows it (``F / k`` the reference's;
+    #: ``baseline_gear_inertia.py``, Sec. 8.71), taken with the tooth only where it improves the record by
+    #: more than ``ln N`` and the tooth explains the record beyond that machine's healthy run; False: the
+    #: reference's machine as in session 24
+    gear_inertia_with_reference: bool = True
     #: in contact: a damaged tooth's sidebands of the mesh harmonics >= 2 on its wheel's shaft taken as the
     #: model's times one fitted factor per harmonic in [0, 1] (the pulse's shape, not its depth;
     #: ``tooth_band_shape.py``, Sec. 8.63: the held-out x1.6 teeth); False: as in session 21

@@ -35,10 +35,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.baseline_gear_inertia import mode_placement_applies, tooth_with_mode_placed
 from gear_rotor_sim.calibration.candidates_tooth_dte import confirmed_or_fallback
 from gear_rotor_sim.calibration.candidates_tooth_share import min_share
 from gear_rotor_sim.calibration.radial_static import moved_judged_mean
-from gear_rotor_sim.faults import BASELINE_TYPES, Effect, GearMisalignment
+from gear_rotor_sim.faults import BASELINE_TYPES, Effect, GearMisalignment, ToothDamage
 
 if TYPE_CHECKING:
     from gear_rotor_sim.calibration.fit import Calibrator, CandidateFit, FoundEffect
@@ -180,7 +181,15 @@ def examine_round(
         share = max(f.explained, f.comb_explained if f in admissible else 0.0)
         if f.delta_bic <= cal.fit.bic_threshold:
             break
-        if share < min_share(cal, f.effect):
+        # against a reference: a tooth with the gear inertia that places the mesh mode, judged on its full
+        # runs (its ranking share is the mode's misplacement's; baseline_gear_inertia.py, Sec. 8.71)
+        plain, placed = None, None
+        if f in admissible and isinstance(f.effect, ToothDamage) and mode_placement_applies(cal, accepted):
+            try:
+                plain, placed = tooth_with_mode_placed(cal, f, accepted)
+            except (ValueError, RuntimeError) as exc:
+                cal.notes.append(f"{f.effect.label}: gear inertia against the reference not read ({exc})")
+        if share < min_share(cal, f.effect) and placed is None:
             continue
         if f not in admissible:
             cal.notes.append(
@@ -189,7 +198,7 @@ def examine_round(
             )
             continue
         try:
-            ver = cal._refine(f, accepted)
+            ver = placed or plain or cal._refine(f, accepted)
         except (ValueError, RuntimeError) as exc:
             cal.notes.append(f"{f.effect.label}: refinement failed ({exc}); not claimed")
             continue
