@@ -63,7 +63,6 @@ from gear_rotor_sim.calibration.signal_features import (
     shaft_orders,
     time_and_spectrum_errors,
 )
-from gear_rotor_sim.calibration.spectra import analytic_spectra
 
 #: the names other modules, tests and benchmarks import from here (moved in session 16)
 __all__ = [
@@ -389,18 +388,15 @@ class Comparison(EnvelopeFeatures):
         non-synchronous part) does not depend on which tooth it is, while a circular shift of a
         non-periodic response difference would misplace it against the unshifted model.
         """
-        # the same phasors for every channel; the analytic signals' spectra kept per feature set
-        # (a damaged tooth's and a crack's signatures are shifted to every mesh period: spectra.py)
+        # the same phasors for every channel
         turn = [np.exp(-2j * np.pi * sh.orders * sh.ratio * self.speed_hz * dt) for sh in self.shafts]
         order = [[co * e for co, e in zip(cs, turn, strict=True)] for cs in feats.order]
         if not analytic:
             return ModelFeatures(order, feats.analytic, feats.static)
         out = []
-        delay: dict[int, np.ndarray] = {}
-        for spec, f in analytic_spectra(feats.analytic, self.fs):
-            if f.size not in delay:
-                delay[f.size] = np.exp(-2j * np.pi * f * dt)
-            out.append(np.fft.ifft(spec * delay[f.size]))
+        for a in feats.analytic:
+            f = np.fft.fftfreq(a.size, 1.0 / self.fs)
+            out.append(np.fft.ifft(np.fft.fft(a) * np.exp(-2j * np.pi * f * dt)))
         return ModelFeatures(order, out, feats.static)
 
     # ---------------------------------------------------------------------------------- scoring
