@@ -1,6 +1,6 @@
 """The calibration's performance memos (docs/history/calibration_sessions.md Sec. 8.70) return what the
 computation they replace returns, and never a stale result: the shifted feature set, the carrier masks
-and the in-place feature sum."""
+and the filter designs."""
 
 from __future__ import annotations
 
@@ -55,25 +55,6 @@ def test_carrier_mask_follows_the_shaft_object():
     assert Comparison.carriers(cmp, 0) is first  # kept
     cmp.shafts = [b]  # another shaft at the same index: its own mask
     assert np.flatnonzero(Comparison.carriers(cmp, 0)).tolist() == [19, 39]
-
-
-def test_combo_is_the_expression_to_the_bit():
-    rng = np.random.default_rng(2)
-    x = [rng.normal(size=300) + 1j * rng.normal(size=300) for _ in range(2)]
-    y = [rng.normal(size=300) + 1j * rng.normal(size=300) for _ in range(2)]
-    fx = ModelFeatures([[x[0]]], [x[1]], rng.normal(size=3))
-    fy = ModelFeatures([[y[0]]], [y[1]], rng.normal(size=3))
-    w = 0.37
-    out = fx.combo(fy, w)
-    assert np.array_equal(out.order[0][0], x[0] + w * y[0])
-    assert np.array_equal(out.analytic[0], x[1] + w * y[1])
-    assert np.array_equal(out.static, fx.static + w * fy.static)
-    assert out.analytic[0] is not x[1] and np.array_equal(fx.analytic[0], x[1])  # inputs untouched
-    # a real array plus a complex one: promoted as the expression
-    mixed = ModelFeatures([[np.ones(3)]], [], np.zeros(1)).combo(
-        ModelFeatures([[1j * np.ones(3)]], [], np.zeros(1)), 2.0
-    )
-    assert np.array_equal(mixed.order[0][0], np.ones(3) + 2.0 * (1j * np.ones(3)))
 
 
 def test_band_pass_and_upsampling_filters_designed_once_are_the_designs():

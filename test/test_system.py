@@ -103,3 +103,23 @@ def test_single_rotor_and_rayleigh_damping() -> None:
     r = np.zeros(s.ndof)
     r[0::6] = 1.0
     assert r @ s.M @ r == pytest.approx(m_disc + RHO * math.pi / 4 * 0.02**2 * 0.5, rel=1e-12)
+
+
+def test_mesh_mode_shares_sum_to_the_mesh_springs_static_share(paper_system) -> None:
+    """Mass-normalised modes give ``K_t^-1 = sum x x^T / w^2``, so the shares ``k_m (v . x)^2 / w^2`` sum
+    to ``k_m v^T K_t^-1 v`` with ``K_t = K + k_m v v^T``. The output shaft turns against a load torque, not a
+    spring, so without the mesh ``K`` is singular along ``v`` and that sum is 1 (Sherman-Morrison): the mesh
+    spring takes all the strain energy of a load along its line of action.
+    The mesh mode holds a large part."""
+    from gear_rotor_sim.system import mesh_mode_shares
+
+    m = paper_system.meshes[0]
+    f = paper_system.free_dofs
+    v = m.line_of_action[f]
+    km = m.mean_stiffness
+    f_hz, share = mesh_mode_shares(paper_system, km)
+    k_t = paper_system.K[np.ix_(f, f)] + km * np.outer(v, v)
+    static = km * float(v @ np.linalg.solve(k_t, v))
+    assert np.all(np.diff(f_hz) >= 0) and np.all(share >= 0)
+    assert math.isclose(float(share.sum()), static, rel_tol=1e-6)
+    assert math.isclose(static, 1.0, rel_tol=1e-6) and share.max() > 0.4

@@ -126,20 +126,14 @@ def mesh_modes(
         ``f_hz``, ``mesh_energy`` (fraction) and ``speed_rpm`` at which the mesh frequency equals
         ``f_hz`` (``60 f / z1``).
     """
-    import scipy.linalg as sla
-
     from gear_rotor_sim.analysis.bifurcation import build_system
+    from gear_rotor_sim.system import mesh_mode_shares
 
     system = build_system(
         Case(temperature_c, overrides=(("mesh_stiffness_scale", float(scale)),), config=config)
     )
     m = system.meshes[0]
-    v = m.line_of_action
-    f = system.free_dofs
-    k = system.K + m.mean_stiffness * np.outer(v, v)
-    w2, x = sla.eigh(k[np.ix_(f, f)], system.M[np.ix_(f, f)])
-    share = m.mean_stiffness * (v[f] @ x) ** 2 / np.abs(w2)
-    fr = np.sqrt(np.abs(w2)) / (2 * np.pi)
+    fr, share = mesh_mode_shares(system, m.mean_stiffness)
     return [
         {"f_hz": float(a), "mesh_energy": float(b), "speed_rpm": float(a * 60.0 / m.pinion_teeth)}
         for a, b in zip(fr, share, strict=True)

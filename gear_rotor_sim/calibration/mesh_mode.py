@@ -11,15 +11,14 @@ they come near it, and what the gear pair's inertia moves without touching the s
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
-import scipy.linalg as sla
 
 from gear_rotor_sim.config import RigConfig
 from gear_rotor_sim.faults import Effect, MeshStiffnessDamping
 from gear_rotor_sim.faults.mesh_inertia import MeshInertia
+from gear_rotor_sim.system import mesh_mode_shares
 
 
 def mesh_stiffness_scale(effects: Sequence[Effect]) -> float:
@@ -61,11 +60,6 @@ def mesh_mode_hz(
     for e in effects:
         cfg = e.modify_config(cfg)
     system = cached_system(cfg, temperature_c)
-    m = system.meshes[mesh]
-    f = system.free_dofs
-    v = m.line_of_action[f]
-    km = mesh_stiffness_scale(effects) * m.mean_stiffness
-    k = system.K[np.ix_(f, f)] + km * np.outer(v, v)
-    w2, x = sla.eigh(k, system.M[np.ix_(f, f)])
-    share = km * (v @ x) ** 2 / np.abs(w2)
-    return math.sqrt(abs(float(w2[int(np.argmax(share))]))) / (2.0 * math.pi)
+    km = mesh_stiffness_scale(effects) * system.meshes[mesh].mean_stiffness
+    f_hz, share = mesh_mode_shares(system, km, mesh)
+    return float(f_hz[int(np.argmax(share))])

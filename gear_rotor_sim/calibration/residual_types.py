@@ -12,16 +12,6 @@ import numpy as np
 FAMILIES = ("order", "envelope", "static")
 
 
-def _axpy(x: np.ndarray, w: float, y: np.ndarray) -> np.ndarray:
-    """``x + w * y`` as a new array: ``w * y`` first, then ``x`` added into it (IEEE addition commutes,
-    so the result is the expression's to the bit); a broadcast or a promoted ``x`` takes the expression."""
-    out = w * y
-    if isinstance(out, np.ndarray) and np.shape(x) == out.shape and np.result_type(x, out) == out.dtype:
-        out += x
-        return out
-    return x + out
-
-
 @dataclass
 class ModelFeatures:
     """Linear representation of a model signal set.
@@ -37,15 +27,14 @@ class ModelFeatures:
     static: np.ndarray = field(default_factory=lambda: np.zeros(0))  # channel means (order 0)
 
     def combo(self, other: ModelFeatures, w: float) -> ModelFeatures:
-        """``self + w * other`` (the sum formed in the product's array: the same floats as
-        ``x + w * y``, one temporary fewer)."""
+        """``self + w * other``."""
         return ModelFeatures(
             [
-                [_axpy(x, w, y) for x, y in zip(xs, ys, strict=True)]
+                [x + w * y for x, y in zip(xs, ys, strict=True)]
                 for xs, ys in zip(self.order, other.order, strict=True)
             ],
-            [_axpy(x, w, y) for x, y in zip(self.analytic, other.analytic, strict=True)],
-            _axpy(self.static, w, other.static),
+            [x + w * y for x, y in zip(self.analytic, other.analytic, strict=True)],
+            self.static + w * other.static,
         )
 
     def scaled(self, w: float) -> ModelFeatures:
