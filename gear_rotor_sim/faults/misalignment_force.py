@@ -46,6 +46,14 @@ PASSBAND_FRACTION = 0.4
 _ORDERS: OrderedDict[bytes, np.ndarray] = OrderedDict()
 _ORDERS_MAX = 16
 
+#: the normal equations (:func:`_orders_by_normal_equations`) are used up to this bound on the Gram
+#: matrix's condition number (Gershgorin), else the SVD least squares
+MAX_GRAM_COND = 4.0
+
+#: largest phase (rad) at the highest order by which the sample times may miss a uniform grid for the
+#: normal equations' block sums (:func:`order_sums`)
+PHASE_TOL = 1e-9
+
 
 def mesh_force_channel(cfg: Any, mesh: int) -> str:
     """Simulator channel of the 1-based ``mesh``'s force: ``mesh_force`` on a single-mesh rig, else
@@ -104,6 +112,18 @@ def wheel_orders(t: np.ndarray, force: np.ndarray, shaft_hz: float, max_order: i
     if hit is not None:
         _ORDERS.move_to_end(key)
         return hit.copy()
+    coef = _orders_by_normal_equations(t, x, shaft_hz, max_order)
+    if coef is None:
+        coef = _orders_by_least_squares(t, x, shaft_hz, max_order)
+    _ORDERS[key] = coef.copy()
+    if len(_ORDERS) > _ORDERS_MAX:
+        _ORDERS.popitem(last=False)
+    return coef
+
+
+def _orders_by_least_squares(t: np.ndarray, x: np.ndarray, shaft_hz: float, max_order: int) -> np.ndarray:
+    """:func:`wheel_orders` by ``numpy.linalg.lstsq`` (SVD) on the real design matrix ``[1, cos k theta,
+    -sin k theta]`` (n, 2 K + 1): any sample times, any conditioning."""
     theta = 2.0 * np.pi * shaft_hz * t
     k = np.arange(1, max_order + 1)
     a = np.empty((t.size, 1 + 2 * max_order))
@@ -114,9 +134,91 @@ def wheel_orders(t: np.ndarray, force: np.ndarray, shaft_hz: float, max_order: i
     coef = np.empty(max_order + 1, dtype=complex)
     coef[0] = sol[0]
     coef[1:] = 0.5 * (sol[1::2] + 1j * sol[2::2])
-    _ORDERS[key] = coef.copy()
-    if len(_ORDERS) > _ORDERS_MAX:
-        _ORDERS.popitem(last=False)
+    return coef
+
+
+def order_sums(x: np.ndarray, theta0: float, step: float, orders: np.ndarray) -> np.ndarray:
+    """``sum_n x_n exp(-i k (theta0 + n step))`` for each ``k`` of ``orders``: the DTFT of uniform samples
+    at the orders of an angle that advances ``step`` per sample.
+
+    Summed in blocks ``n = p L + q`` (``L ~ sqrt(n)``): ``e^{-i k (theta0 + p L step)} sum_q x_{pL+q}
+    e^{-i k q step}``, one matrix product of ``(K, L)`` phasors with the ``(L, P)`` samples; ``K (L + P)``
+    complex exponentials instead of the ``K n`` of the direct sum (the same sum, to rounding).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Real samples (n,).
+    theta0 : float
+        Angle at the first sample, rad.
+    step : float
+        Angle per sample, rad.
+    orders : numpy.ndarray
+        Orders ``k`` (K,).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex (K,).
+    """
+    x = np.asarray(x, dtype=float)
+    k = np.asarray(orders, dtype=float)
+    n = x.size
+    blk = max(1, math.isqrt(max(n - 1, 0)) + 1)
+    n_blk = -(-n // blk)
+    xs = np.zeros(n_blk * blk)
+    xs[:n] = x
+    xs = xs.reshape(n_blk, blk).T  # (L, P): xs[q, p] = x[p L + q]
+    inner = np.outer(k, step * np.arange(blk))
+    part = np.cos(inner) @ xs - 1j * (np.sin(inner) @ xs)  # (K, P)
+    outer = np.exp(-1j * np.outer(k, theta0 + step * blk * np.arange(n_blk)))
+    return np.sum(outer * part, axis=1)
+
+
+def _orders_by_normal_equations(
+    t: np.ndarray, x: np.ndarray, shaft_hz: float, max_order: int
+) -> np.ndarray | None:
+    """:func:`wheel_orders` by the normal equations in the complex basis ``e^{i k theta}``, ``|k| <= K``,
+    where they are safe; ``None`` where not (the caller solves by least squares).
+
+    For real samples the least-squares coefficients ``c_k`` of ``sum_k c_k e^{i k theta}`` are conjugate
+    symmetric and equal those of the real basis (``c_k`` for ``k >= 0`` is :func:`wheel_orders`' result).
+    The Gram matrix ``G_jk = sum_n e^{i (k - j) theta_n}`` is Hermitian Toeplitz: ``4 K + 1`` sums
+    (:func:`order_sums` of ones), the right-hand side ``K + 1`` more (of the samples, the other half by
+    symmetry). Used where the times are uniform (the phase of order ``K`` within ``PHASE_TOL`` rad of the
+    uniform grid's) and Gershgorin's bound on the Gram matrix's condition number, ``(1 + r) / (1 - r)`` with
+    ``r`` the largest off-diagonal row sum over the diagonal ``n``, is at most ``MAX_GRAM_COND``: over whole
+    revolutions of the wheel the basis is orthogonal but for the window's rounding to a sample (the
+    calibration's mesh-force runs, ``r`` a few percent). Normal equations lose ``cond(G) eps`` relative to
+    the coefficients' norm, an SVD ``cond(A) eps``; both are rounding at these bounds.
+    """
+    import scipy.linalg
+
+    n, kk = t.size, max_order
+    if n < 2:
+        return None
+    dt = (t[-1] - t[0]) / (n - 1)
+    w = 2.0 * np.pi * shaft_hz
+    dev = float(np.max(np.abs(t - (t[0] + dt * np.arange(n)))))
+    # the Gram matrix holds the orders up to 2 K
+    if not dt > 0.0 or abs(w) * 2 * max(kk, 1) * dev > PHASE_TOL:
+        return None
+    theta0, step = w * t[0], w * dt
+    s_neg = order_sums(np.ones(n), theta0, step, np.arange(2 * kk + 1))  # sum e^{-i m theta}, m = 0..2K
+    lags = np.arange(-2 * kk, 2 * kk + 1)
+    s_pos = np.where(lags >= 0, np.conj(s_neg[np.abs(lags)]), s_neg[np.abs(lags)])  # sum e^{+i m theta}
+    idx = np.arange(-kk, kk + 1)
+    # row j of G holds the lags k - j, k = -K..K: its off-diagonal sum from a running sum of |G| by lag
+    run = np.concatenate([[0.0], np.cumsum(np.abs(s_pos))])
+    rows = run[idx[::-1] + 3 * kk + 1] - run[idx[::-1] + kk] - n
+    r = float(np.max(rows)) / n
+    if r >= 1.0 or (1.0 + r) / (1.0 - r) > MAX_GRAM_COND:
+        return None
+    gram = s_pos[(idx[None, :] - idx[:, None]) + 2 * kk]  # G_jk = sum e^{i (k - j) theta}
+    b_half = order_sums(x, theta0, step, np.arange(kk + 1))  # sum x e^{-i k theta}, k = 0..K
+    rhs = np.concatenate([np.conj(b_half[:0:-1]), b_half])  # k = -K..K
+    c = scipy.linalg.cho_solve(scipy.linalg.cho_factor(gram), rhs)
+    coef = 0.5 * (c[kk:] + np.conj(c[kk::-1]))
     return coef
 
 
