@@ -87,3 +87,36 @@ def test_tilt_line_sum_equals_the_three_operand_einsum(nh):
     got = line_sum(ek, eh, lines)
     assert got.shape == ref.shape
     assert np.max(np.abs(got - ref)) <= 1e-13 * np.max(np.abs(ref))
+
+
+def test_crack_phase_search_on_the_order_features_alone_gives_the_same_floats(shared_records: dict):
+    """``candidates_crack._fit_form`` searches the mouth's phase on the order features alone
+    (``order_part``): the linear fit, its low-order loss, the low orders' chi^2, the gains and the time
+    shift are the floats the full features (with analytic signals) give. Features of the generator's
+    healthy 2000 rpm record, scaled and with noise as model columns."""
+    from gear_rotor_sim.calibration import candidates_crack as cc
+    from gear_rotor_sim.calibration.fit import Calibrator
+    from gear_rotor_sim.calibration.measurement import load_measurement
+    from gear_rotor_sim.calibration.residual_types import ModelFeatures
+
+    cal = Calibrator(load_measurement(shared_records["healthy_2000"]))
+    cmp, n = cal.cmp, cal.runner.n_model
+    data = np.asarray(cal.m.data[:n], dtype=float)
+    rng = np.random.default_rng(8)
+
+    def feats(scale: float) -> ModelFeatures:
+        model = scale * data + 0.1 * np.std(data, axis=0) * rng.normal(size=data.shape)
+        analytic = [rng.normal(size=n) + 1j * rng.normal(size=n) for _ in range(cmp.nc)]
+        return ModelFeatures(cmp._order(model), analytic, model.mean(axis=0))
+
+    cur, cols = feats(0.9), [feats(0.05), feats(0.02), feats(0.01)]
+    bare_cur, bare_cols = cc.order_part(cur), [cc.order_part(x) for x in cols]
+    assert bare_cur.analytic == [] and len(cur.analytic) == cmp.nc
+    c = cc.linear_coefficients(cal, cur, cols)
+    assert c is not None and np.all(c != 0.0)
+    assert np.array_equal(cc.linear_coefficients(cal, bare_cur, bare_cols), c)
+    low = cc.low_order_coefficient(cal, cur, cols, c)
+    assert low is not None and cc.low_order_coefficient(cal, bare_cur, bare_cols, c) == low
+    assert cc.low_order_chi2(cal, bare_cur) == cc.low_order_chi2(cal, cur)
+    assert np.array_equal(cmp.fit_gains(bare_cur), cmp.fit_gains(cur))
+    assert cmp.best_shift(bare_cur) == cmp.best_shift(cur)

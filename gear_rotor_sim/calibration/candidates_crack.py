@@ -85,6 +85,12 @@ PHASE_ON_LOW_ORDERS = True
 NOMINAL_SUPPORT = True
 
 
+def order_part(feats: ModelFeatures) -> ModelFeatures:
+    """``feats`` without its analytic signals: what the linear fit, the gains, the time shift and the
+    low orders' chi^2 read (``Comparison.fit_gains``, ``best_shift``, ``apply_shift``: the order features)."""
+    return ModelFeatures(feats.order, [], feats.static)
+
+
 def wheel_teeth(cfg: Any, node0: int) -> int:
     """Teeth of the first wheel on the shaft of ``node0`` (0 if the shaft carries none)."""
     shaft = cfg.shaft_of_node(node0)
@@ -329,16 +335,24 @@ def _fit_form(cal: Any, e: ShaftCrack, cur: ModelFeatures) -> CandidateFit | Non
         return None
     analytic = not cal.cmp.env_non_sync
     tau = cal.cmp.best_shift(cur)
-    cur_tau = cal.cmp.apply_shift(cur, tau)
+    # the phase search reads the order features alone (the linear fit, the gains, the time shift and the
+    # low orders' chi^2 do): the analytic signals are shifted and summed at the chosen phase only
+    bare = [[order_part(x) for x in b] for b in bases]
+    cur_bare = order_part(cur)
+    cur_tau = cal.cmp.apply_shift(cur_bare, tau)
 
-    def columns(j: int) -> list[ModelFeatures]:
-        """The columns at phase ``-j pi / z``: the base runs delayed by ``j // 2`` mesh periods."""
-        return [cal.cmp.shifted(b, (j // 2) / fm, analytic=analytic) for b in bases[j % 2]]
+    def columns(j: int, full: bool = True) -> list[ModelFeatures]:
+        """The columns at phase ``-j pi / z``: the base runs delayed by ``j // 2`` mesh periods (their order
+        features alone unless ``full``)."""
+        return [
+            cal.cmp.shifted(b, (j // 2) / fm, analytic=analytic) for b in (bases if full else bare)[j % 2]
+        ]
 
-    def solve(j: int) -> tuple[float, complex, ModelFeatures, list[ModelFeatures]] | None:
-        """Loss, dynamic gain and features at phase ``j`` from the linear fit of the columns."""
-        cols = columns(j)
-        shifted = [cal.cmp.apply_shift(x, tau) for x in cols]
+    def solve(j: int, full: bool = True) -> tuple[float, complex, ModelFeatures, list[ModelFeatures]] | None:
+        """Loss, dynamic gain and features at phase ``j`` from the linear fit of the columns (the order
+        features alone unless ``full``: the loss and gain are the same floats)."""
+        cols = columns(j, full)
+        shifted = [cal.cmp.apply_shift(order_part(x), tau) for x in cols]
         c = linear_coefficients(cal, cur_tau, shifted)
         if c is None:
             return None
@@ -351,10 +365,12 @@ def _fit_form(cal: Any, e: ShaftCrack, cur: ModelFeatures) -> CandidateFit | Non
         gain = complex(c[1], c[2]) / loss if len(c) == 3 and loss > 0 else 0j
         if abs(gain) > GAIN_MAX:
             gain *= GAIN_MAX / abs(gain)
-        return loss, gain, features(cols, loss, gain), cols
+        return loss, gain, features(cols, loss, gain, cur if full else cur_bare), cols
 
-    def features(cols: list[ModelFeatures], loss: float, gain: complex) -> ModelFeatures:
-        out = cur.combo(cols[0], growth(loss))
+    def features(
+        cols: list[ModelFeatures], loss: float, gain: complex, start: ModelFeatures = cur
+    ) -> ModelFeatures:
+        out = start.combo(cols[0], growth(loss))
         if len(cols) == 3:
             out = out.combo(cols[1], loss * gain.real).combo(cols[2], loss * gain.imag)
         return out
@@ -362,19 +378,24 @@ def _fit_form(cal: Any, e: ShaftCrack, cur: ModelFeatures) -> CandidateFit | Non
     def phase_of(j: int) -> float:
         return float(math.remainder(-j * half, 2.0 * math.pi))
 
-    fits = {j: solve(j) for j in range(2 * z)}
-    chi = {j: cal._chi2(f[2]) for j, f in fits.items() if f is not None}
-    if not chi:
+    fits = {j: solve(j, full=False) for j in range(2 * z)}
+    valid = [j for j, f in fits.items() if f is not None]
+    if not valid:
         return None
-    order = chi
-    if PHASE_ON_LOW_ORDERS:
-        low = {j: low_order_chi2(cal, fits[j][2]) for j in chi}
-        if all(v is not None for v in low.values()):
-            order = low
+    # the phase on the low orders' chi^2 (order features alone) where every phase has them: the whole
+    # record's chi^2 is then wanted at the chosen phase alone; else at every phase, on the full features
+    low = {j: low_order_chi2(cal, fits[j][2]) for j in valid} if PHASE_ON_LOW_ORDERS else {}
+    on_low = bool(low) and all(v is not None for v in low.values())
+    full = {j: solve(j) for j in ([] if on_low else valid)}
+    chi = {j: cal._chi2(f[2]) for j, f in full.items() if f is not None}
+    order = low if on_low else chi
     j_best = min(order, key=order.__getitem__)
-    loss, gain, feats, cols = fits[j_best]
+    if on_low:
+        full[j_best] = solve(j_best)
+    loss, gain, feats, cols = full[j_best]  # type: ignore[misc]
+    chi_best = chi[j_best] if j_best in chi else cal._chi2(feats)
     sd = cal._curvature_sigma(
-        lambda p: cal._chi2(features(cols, p, gain)), loss, chi[j_best], 0.02 * max(loss, 0.05), 4, 0.0
+        lambda p: cal._chi2(features(cols, p, gain)), loss, chi_best, 0.02 * max(loss, 0.05), 4, 0.0
     )
     reported = support_loss(loss, *ref)
     eff = e.with_parameters(stiffness_loss=reported, phase_rad=phase_of(j_best))
