@@ -14,7 +14,9 @@ with the case's own reference) and classifies the failure (the classes pre-regis
 - (e) named, within 25 %, the error not halved.
 
 The first class that applies is the case's; the line also gives the twins' ``error_after`` (the floor a
-perfect diagnosis leaves, Sec. 8.32) and ``error_before / floor``.
+perfect diagnosis leaves, Sec. 8.32; with ``--max-effects 0`` the error after the baseline update alone) and
+``error_before / floor``. ``--max-effects 0`` leaves ``error_before`` as a full calibration has it (the
+nominal or reference-updated model's score, before any baseline update or effect) at a fraction of its time.
 
 Usage::
 
@@ -109,13 +111,12 @@ def main(argv: list[str] | None = None) -> int:
             cls = classify(row, twins)
             counts[cls] = counts.get(cls, 0) + 1
             tb = [ci._fmt(t.get("error_before")) for t in twins]
-            ta = [t.get("error_after") for t in twins if t.get("error_after") is not None]
-            floor = max(ta) if ta and not extra else None
-            ratio = float(row["error_before"]) / floor if floor else None
+            ta = [float(t["error_after"]) for t in twins if t.get("error_after") is not None]
+            ratio = float(row["error_before"]) / max(ta) if ta else None
             print(
                 f"| {c['tag']} | {'--baseline' if baseline else 'no reference'} | `{row['truth']}` | "
                 f"{row['verdict']} ({row.get('first', '-')}) | {cls} | {ci._fmt(row.get('error_before'))} | "
-                f"{', '.join(tb) or '-'} | {', '.join(ci._fmt(x) for x in ta) if not extra else '-'} | "
+                f"{', '.join(tb) or '-'} | {', '.join(ci._fmt(x) for x in ta) or '-'} | "
                 f"{ci._fmt(ratio, '.2f')} |"
             )
     print("\nfailures by class: " + (", ".join(f"({k}) {v}" for k, v in sorted(counts.items())) or "none"))
