@@ -24,7 +24,9 @@ def test_calibrate_names_the_injected_tooth_damage(tmp_path: Path) -> None:
          "--faults", str(faults), "--out", str(run)],
         check=True, capture_output=True, text=True,
     )  # fmt: skip
-    out = subprocess.run([*cli, "calibrate", str(run), "--json"], check=True, capture_output=True, text=True)
+    # the first effect is what is asserted: the search stops there (--max-effects 1; Sec. 8.74)
+    cmd = [*cli, "calibrate", str(run), "--json", "--max-effects", "1"]
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     effects = json.loads(out.stdout)["effects"]
     assert effects, "no effect named"
     first = effects[0]
