@@ -63,7 +63,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import calibration_heldout as ho
 import calibration_independent as ci
 
-from lumped_gearbox import parse_fault
+from lumped_gearbox import Gearbox, parse_fault
 
 #: the draw's seed (stated before the draw: the session's date)
 DRAW_SEED = 20261128
@@ -93,7 +93,8 @@ FAMILIES: dict[str, str] = {
     "ball_defect": ci.FAULTS[10],
     "shaft_crack": ci.CRACK,
 }
-TEETH = {"pinion": 29, "gear": 49}
+#: teeth of each wheel in the generator (Table 3)
+TEETH = {"pinion": Gearbox().z1, "gear": Gearbox().z2}
 
 RULES = {
     "verdict": (
@@ -288,12 +289,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--list", action="store_true", help="print the committed cases and exit")
     ap.add_argument("--write-cases", action="store_true", help="write the draw to the case file and exit")
-    ap.add_argument("--jobs", type=int, default=1, help="parallel calibrations (process pool, default 1)")
-    ap.add_argument("--out", default="out/calibration_blind", help="records and results directory")
-    ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
-    ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
-    ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
-    ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
+    ci.add_run_arguments(ap, "out/calibration_blind")
     ap.add_argument("--from-results", nargs="+", metavar="DIR", help="judge the reports already in DIR")
     args = ap.parse_args(argv)
     if args.write_cases:

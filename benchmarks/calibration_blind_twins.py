@@ -77,12 +77,8 @@ def classify(row: dict[str, Any], twins: list[dict[str, Any]]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", default="out/calibration_blind", help="the blind run's directory")
+    ci.add_run_arguments(ap, "out/calibration_blind", jobs=False)
     ap.add_argument("--twins", type=int, default=2, help="healthy twins per failed case (default 2)")
-    ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
-    ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
-    ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
-    ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
     ap.add_argument(
         "--max-effects",
         type=int,

@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
                 flips.append(f"number {k} in one report only")
                 continue
             d = drift(na[k], nb[k])
-            field = k.split(":")[-1] if ":" not in k else f"{k.split(':')[0]}:{k.split(':')[-1]}"
+            field = k if ":" not in k else f"{k.split(':')[0]}:{k.split(':')[-1]}"
             if d >= largest.get(field, (-1.0, ""))[0]:
                 largest[field] = (d, path.name)
             if d > worst[1]:

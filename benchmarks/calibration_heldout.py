@@ -336,12 +336,7 @@ def collect(todo: list[Held], dirs: list[Path], baseline: bool) -> list[dict[str
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--jobs", type=int, default=1, help="parallel calibrations (process pool, default 1)")
-    ap.add_argument("--out", default="out/calibration_heldout", help="records and results directory")
-    ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
-    ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
-    ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
-    ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
+    ci.add_run_arguments(ap, "out/calibration_heldout")
     ap.add_argument("--list", action="store_true", help="print the cases and exit")
     ap.add_argument(
         "--sampling",

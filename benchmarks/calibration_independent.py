@@ -361,15 +361,23 @@ def render(rows: list[dict[str, Any]], baseline_ok: bool, note: str, skipped: bo
     return text + f"; {note}.\n"
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="3 faults at the contact point + 2 healthy records")
-    ap.add_argument("--jobs", type=int, default=1, help="parallel calibrations (process pool, default 1)")
-    ap.add_argument("--out", default="out/calibration_independent", help="records and results directory")
+def add_run_arguments(ap: argparse.ArgumentParser, out_default: str, jobs: bool = True) -> None:
+    """The run options the calibration benchmarks share (this table, the held-out and the blind sets):
+    ``--jobs`` (unless ``jobs`` is False), ``--out``, ``--cases``, ``--duration-s``, ``--no-baseline``,
+    ``--only-baseline``."""
+    if jobs:
+        ap.add_argument("--jobs", type=int, default=1, help="parallel calibrations (process pool, default 1)")
+    ap.add_argument("--out", default=out_default, help="records and results directory")
     ap.add_argument("--cases", nargs="*", default=None, help="only cases whose tag contains one of these")
     ap.add_argument("--duration-s", type=float, default=2.0, help="record length, s (default 2)")
     ap.add_argument("--no-baseline", action="store_true", help="skip the --baseline variant")
     ap.add_argument("--only-baseline", action="store_true", help="only the --baseline variant")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="3 faults at the contact point + 2 healthy records")
+    add_run_arguments(ap, "out/calibration_independent")
     ap.add_argument(
         "--sampling",
         choices=("daq", "point"),
