@@ -34,8 +34,8 @@ within 25 %, ``error_after <= error_before / 2``; healthy: nothing in ``effects`
 
 Usage::
 
-    python benchmarks/calibration_blind.py --list
-    python benchmarks/calibration_blind.py --write-cases
+    python benchmarks/calibration_blind.py --list [--set 2]
+    python benchmarks/calibration_blind.py --write-cases --set N
     python benchmarks/calibration_blind.py --jobs 1 --out out/calibration_blind [--cases SUBSTR ...]
         [--no-baseline | --only-baseline]
     python benchmarks/calibration_blind.py --from-results out/calibration_blind
@@ -67,6 +67,13 @@ from lumped_gearbox import Gearbox, parse_fault
 
 #: the draw's seed (stated before the draw: the session's date)
 DRAW_SEED = 20261128
+#: the blind sets, each pre-registered before it was run: draw seed and case file. Set 1 (session 26) was
+#: run once and is development data since; set 2 (seed: the date and session 27) judges later work.
+#: Tags: ``blind01`` .. in set 1, ``blind2_01`` .. in set 2 (records of both can share a directory).
+SETS: dict[int, tuple[int, str, str]] = {
+    1: (DRAW_SEED, "calibration_blind_cases.json", "blind"),
+    2: (2026112827, "calibration_blind2_cases.json", "blind2_"),
+}
 N_CASES = 16
 N_HEALTHY = 3
 #: severity factor range against the table's (log-uniform)
@@ -77,7 +84,7 @@ TEMPERATURE_C = (25.0, 150.0)
 REFERENCE_GAP_RPM = 1000.0
 #: record seeds: five digits (the other benchmarks use 11..40, 101..148, 201..216, 701.., 999)
 SEED_RANGE = (10_000, 100_000)
-CASE_FILE = Path(__file__).resolve().parent / "calibration_blind_cases.json"
+CASE_FILE = Path(__file__).resolve().parent / SETS[1][1]
 
 #: the library's fault families and the table's fault string of each (its severity and fields)
 FAMILIES: dict[str, str] = {
@@ -151,9 +158,15 @@ def _fault_string(family: str, rng: np.random.Generator) -> tuple[str, float]:
     return f"{family}:" + ",".join(f"{k}={v}" for k, v in fields.items()), round(factor, 4)
 
 
+def _tag_prefix(seed: int) -> str:
+    """The case tags' prefix of the set drawn from ``seed`` (``blind`` for a seed not in ``SETS``)."""
+    return next((prefix for s, _, prefix in SETS.values() if s == seed), "blind")
+
+
 def draw(seed: int = DRAW_SEED, n: int = N_CASES, n_healthy: int = N_HEALTHY) -> list[dict[str, Any]]:
     """The blind cases drawn from ``seed`` (see the module docstring); deterministic."""
     rng = np.random.default_rng(seed)
+    prefix = _tag_prefix(seed)
     fams = list(FAMILIES)
     n_faults = n - n_healthy
     kinds: list[str | None] = fams[:n_faults]
@@ -183,7 +196,7 @@ def draw(seed: int = DRAW_SEED, n: int = N_CASES, n_healthy: int = N_HEALTHY) ->
         seed_rec, seed_ref = fresh_seed(), fresh_seed()
         out.append(
             {
-                "tag": f"blind{i:02d}",
+                "tag": f"{prefix}{i:02d}",
                 "family": family or "healthy",
                 "speed_rpm": speed,
                 "temperature_c": temp,
@@ -210,6 +223,13 @@ def case_document(seed: int = DRAW_SEED) -> dict[str, Any]:
         "rules": RULES,
         "cases": draw(seed),
     }
+
+
+def case_file(blind_set: int = 1) -> Path:
+    """The committed case file of blind set ``blind_set`` (``SETS``)."""
+    if blind_set not in SETS:
+        raise ValueError(f"blind set {blind_set}: allowed {sorted(SETS)}")
+    return CASE_FILE.parent / SETS[blind_set][1]
 
 
 def load_cases(path: Path = CASE_FILE) -> list[dict[str, Any]]:
@@ -289,14 +309,23 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--list", action="store_true", help="print the committed cases and exit")
     ap.add_argument("--write-cases", action="store_true", help="write the draw to the case file and exit")
+    ap.add_argument(
+        "--set",
+        type=int,
+        default=1,
+        choices=sorted(SETS),
+        help="blind set (1: seed 20261128, session 26, development data since; 2: seed 2026112827, "
+        "pre-registered in session 27); default 1",
+    )
     ci.add_run_arguments(ap, "out/calibration_blind")
     ap.add_argument("--from-results", nargs="+", metavar="DIR", help="judge the reports already in DIR")
     args = ap.parse_args(argv)
+    path = case_file(args.set)
     if args.write_cases:
-        CASE_FILE.write_text(json.dumps(case_document(), indent=1) + "\n")
-        print(f"wrote {CASE_FILE}")
+        path.write_text(json.dumps(case_document(SETS[args.set][0]), indent=1) + "\n")
+        print(f"wrote {path}")
         return 0
-    todo = [c for c in load_cases() if not args.cases or any(s in c["tag"] for s in args.cases)]
+    todo = [c for c in load_cases(path) if not args.cases or any(s in c["tag"] for s in args.cases)]
     if args.list or not todo:
         for c in todo:
             ref = c["reference"]

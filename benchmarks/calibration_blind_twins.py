@@ -78,6 +78,7 @@ def classify(row: dict[str, Any], twins: list[dict[str, Any]]) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ci.add_run_arguments(ap, "out/calibration_blind", jobs=False)
+    ap.add_argument("--set", type=int, default=1, choices=sorted(cb.SETS), help="blind set (default 1)")
     ap.add_argument("--twins", type=int, default=2, help="healthy twins per failed case (default 2)")
     ap.add_argument(
         "--max-effects",
@@ -87,7 +88,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     out = Path(args.out)
-    cases = [c for c in cb.load_cases() if not args.cases or any(s in c["tag"] for s in args.cases)]
+    cases = [
+        c
+        for c in cb.load_cases(cb.case_file(args.set))
+        if not args.cases or any(s in c["tag"] for s in args.cases)
+    ]
     extra = ("--max-effects", str(args.max_effects)) if args.max_effects is not None else ()
     print(
         "| case | variant | truth | verdict | class | error before | twins' error before | "

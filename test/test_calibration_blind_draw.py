@@ -26,6 +26,20 @@ def test_draw_reproduces_the_committed_cases() -> None:
     assert cb.load_cases() == doc["cases"]
 
 
+def test_second_set_reproduces_its_committed_cases() -> None:
+    """Set 2 (pre-registered in session 27): its own seed and file, other records than set 1's."""
+    seed, name, prefix = cb.SETS[2]
+    doc = json.loads((BENCH / name).read_text())
+    assert doc["draw_seed"] == seed
+    assert doc == json.loads(json.dumps(cb.case_document(seed)))
+    assert cb.load_cases(cb.case_file(2)) == doc["cases"]
+    assert all(c["tag"].startswith(prefix) for c in doc["cases"])
+    first = {c["seed"] for c in cb.load_cases()}
+    assert first.isdisjoint(c["seed"] for c in doc["cases"])
+    with pytest.raises(ValueError, match="blind set 3"):
+        cb.case_file(3)
+
+
 def test_draw_depends_on_its_seed() -> None:
     """Another seed gives another draw (the file check can fail), and the same seed the same one twice."""
     assert cb.draw(cb.DRAW_SEED) == cb.draw(cb.DRAW_SEED)
