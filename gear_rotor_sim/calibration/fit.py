@@ -89,6 +89,7 @@ from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice
 from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.pitch_baseline import pitch_round
+from gear_rotor_sim.calibration.reference_point import rerun_off_point
 from gear_rotor_sim.calibration.residual import (
     REFERENCE_STEPS_PER_MESH,
     Comparison,
@@ -309,6 +310,11 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total
         self.log(f"nominal model: error {score0.error:.3g}")
+        # a held reference whose machine scores this point worse than the nominal one: set aside
+        # (reference_point.py)
+        again = rerun_off_point(self, score0)
+        if again is not None:
+            return again
         screened = self._static_screen(score0)
         score_b = score0
         if screened is not None:
