@@ -78,10 +78,11 @@ def main(argv: list[str] | None = None) -> int:
     for s in (float(v) for v in args.scales.split(",")):
         mesh = (MeshStiffnessDamping(stiffness_scale=s),) if s != 1.0 else ()
         sc, fam = score_with(cal, (*held, *mesh))
+        loss = cal.runner.last_contact_loss
         f_mode = mesh_mode_hz(cal.runner.cfg, op.temperature_c, [*held, *mesh])
         print(
             f"  mesh x{s:g}: FE mesh mode {f_mode:.0f} Hz ({f_mode / f_mesh:.2f} f_mesh); balanced chi2 "
-            f"{sc.balanced_chi2:.6g}, error {sc.error:.4g} (chi2/n: {fam})",
+            f"{sc.balanced_chi2:.6g}, error {sc.error:.4g} (chi2/n: {fam}); contact loss {loss:.3f}",
             flush=True,
         )
     print(f"  CPU {time.process_time() - t0:.0f} s, {cal.runner.n_runs} runs")

@@ -56,6 +56,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.baseline_bounds import baseline_bound_notes
 from gear_rotor_sim.calibration.candidates_tooth_path import (
     contact_tooth_path,
 )
@@ -592,6 +593,12 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         self.m.issues.extend(dte_zero_issues(self, found))
         # a claim that leaves content the model lacks in its own signature is not confident (claim_check.py)
         apply_claim_checks(result, self.runner.cfg)
+        # baseline parameters at the bounds of their plausible range: named (baseline_bounds.py)
+        result.notes.extend(
+            baseline_bound_notes(
+                baseline_updates, self.settings.gain_bounds, self.settings.transfer_slope_bounds
+            )
+        )
         # mains pickup on a shaft order on one or two channels: diagnosed again without it (mains_repair.py)
         return rerun_without_pickup(self, result, cur_feat, cur_score)
 
