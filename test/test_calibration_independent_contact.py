@@ -90,6 +90,26 @@ def test_leading_transient_found_and_steady_record_untouched() -> None:
     assert 0.05 <= head <= 0.15, head
 
 
+def test_leading_transient_takes_its_decaying_tail() -> None:
+    """A free vibration (1234 Hz, tau 15 ms) whose first 50 ms window stands at about 48 x the noise RMS
+    and whose second at about 2 x (from the construction: the window means of exp(-2 t / tau) over the
+    noise variance): the skip covers both windows (before session 27 only the first, the second being
+    below 3 x), and the third (1.002 x) is kept (history Sec. 8.76)."""
+    fs, n = 20000.0, 40000
+    t = np.arange(n) / fs
+    f1, f2 = 50.0, 50.0 * 29 / 49
+    rng = np.random.default_rng(5)
+    sigma = 0.1
+    x = sigma * rng.standard_normal((n, 1)) + np.cos(2 * np.pi * 29 * f1 * t)[:, None]
+    tau = 0.015
+    # second window: A^2 / 2 * mean(exp(-2 t / tau)) = 3 sigma^2 (RMS ratio 2)
+    mean2 = tau / 2 * (np.exp(-2 * 0.05 / tau) - np.exp(-2 * 0.1 / tau)) / 0.05
+    amp = np.sqrt(6.0 * sigma**2 / mean2)
+    x[:, 0] += amp * np.exp(-t / tau) * np.sin(2 * np.pi * 1234.0 * t)
+    assert leading_transient_s(x, fs, [f1, f2]) == pytest.approx(0.1)
+    assert leading_transient_s(x, fs, [f1, f2], tail_ratio=3.0) == pytest.approx(0.05)
+
+
 def test_sideband_ratios_of_an_amplitude_modulated_carrier() -> None:
     """A carrier at order 29 modulated by (1 + m cos(theta + phi)) has sidebands of ratio m/2 e^{+-i phi}
     at orders 28 and 30, whatever the carrier's amplitude or a common gain (the ratio cancels both)."""

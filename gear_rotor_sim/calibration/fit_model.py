@@ -24,7 +24,7 @@ from gear_rotor_sim.calibration.fault_path import (
 from gear_rotor_sim.calibration.fit_types import (
     CandidateFit,
 )
-from gear_rotor_sim.calibration.model_steps import converged_steps_per_mesh
+from gear_rotor_sim.calibration.model_steps import StepChoice, converged_steps_per_mesh, recorded_steps
 from gear_rotor_sim.calibration.residual import (
     HousingSensor,
     ModelFeatures,
@@ -137,7 +137,10 @@ class ModelAccess:
                 self.runner.exact_modal_map = None
                 self.base_raw = self._raw(())
         at_bearing = [c for c, n in enumerate(self.cmp.names) if n.startswith("bearing")]
-        if self.auto_steps and self.cmp.mesh_hz and self.cmp.shafts and at_bearing:
+        own = recorded_steps(self.m) if self.auto_steps else None
+        if own is not None:
+            self._take_recorded_steps(own)
+        elif self.auto_steps and self.cmp.mesh_hz and self.cmp.shafts and at_bearing:
             self._choose_steps(at_bearing)
         base_out = self.runner.outputs(self.base_raw)
         self.cmp.set_baseline(base_out)
@@ -153,6 +156,21 @@ class ModelAccess:
                     )
             base_out = self.runner.outputs(self.base_raw)
         return base_out
+
+    def _take_recorded_steps(self, n: int) -> None:
+        """The model runs at the step count the record was simulated with (``model_steps.recorded_steps``,
+        docs/history/calibration_sessions.md Sec. 8.76), reported in ``model_steps`` and ``notes``."""
+        self.step_choice = StepChoice(n, True, [], from_record=True)
+        if self.runner.steps_per_mesh != n:
+            self.runner.steps_per_mesh = n
+            self.base_raw = self._raw(())
+            self.base_contact_loss = float(self.runner.last_contact_loss)
+        msg = (
+            f"model steps per mesh period: {n}, the record's own (its metadata names the simulator that "
+            "made it; its non-synchronous part is that simulator's numerical residue, not noise)"
+        )
+        self.notes.append(msg)
+        self.log(msg)
 
     def _choose_steps(self, channels: list[int]) -> None:
         """Steps per mesh period of every model run from the healthy model's own convergence at this

@@ -188,6 +188,9 @@ class Measurement:
         Bearing type on every bearing of ``gearbox`` (recordings made with ``--bearing-type``).
     speed_change : numpy.ndarray or None
         Relative speed change per sample of a record resampled to uniform shaft angle (order tracking).
+    recorded_steps_per_mesh : int or None
+        Integration steps per mesh period (the dt rule's setting) of the simulator that made the record,
+        where the record names it (``gear-rotor-sim record`` MCAP metadata); None for measured records.
     """
 
     source: str
@@ -203,6 +206,10 @@ class Measurement:
     #: relative speed change ``w / w_mean - 1`` per sample where order tracking resampled the record to
     #: uniform shaft angle (``order_tracking.py``, ``speed_modulation.py``); None at a constant speed
     speed_change: np.ndarray | None = None
+    #: the dt rule's steps per mesh period of the simulator that made the record (its MCAP metadata names
+    #: the generator ``gear-rotor-sim record``); the calibration's model runs then take the record's own
+    #: numerics (``model_steps.recorded_steps``); None for measured records
+    recorded_steps_per_mesh: int | None = None
 
     @property
     def n_samples(self) -> int:
@@ -247,6 +254,7 @@ class Measurement:
             self.gearbox,
             [*self.issues, f"analysed samples {i0}..{i1 - 1}"],
             self.bearing_type,
+            recorded_steps_per_mesh=self.recorded_steps_per_mesh,
         )
 
     def as_block(self) -> SampleBlock:

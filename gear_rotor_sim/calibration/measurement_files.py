@@ -76,6 +76,7 @@ def load_mcap(
                     )
                 )
             recorded = _recorded_rig(reader)
+            steps = _recorded_steps(reader)
     except Exception as exc:  # mcap raises several unrelated types for damaged files
         if isinstance(exc, MeasurementError):
             raise
@@ -172,11 +173,34 @@ def load_mcap(
         data[~covered] = np.nan
     out = _finish(src, None, lo / fs, fs, data, tuple(specs), op, gearbox, nan_policy, issues, breaks)
     out.bearing_type = bearing_type
+    out.recorded_steps_per_mesh = steps
     return out
 
 
 #: MCAP metadata record written by ``gear-rotor-sim record``, ``dataset`` and the node's recorder.
 RECORDING_METADATA = "gear_rotor_sim.recording"
+
+
+#: ``custom_data.generator`` of a recording made by :func:`~gear_rotor_sim.recording.record_cli.record_run`
+SIMULATOR_GENERATOR = "gear-rotor-sim record"
+
+
+def _recorded_steps(reader: Any) -> int | None:
+    """Steps per mesh period of the simulator that made the recording: the dt rule's default
+    (``solver.dt_rule.DEFAULT_STEPS_PER_MESH``, the only setting ``record_run`` uses) where the
+    ``gear_rotor_sim.recording`` metadata names the generator ``gear-rotor-sim record``; None otherwise."""
+    from gear_rotor_sim.solver.dt_rule import DEFAULT_STEPS_PER_MESH
+
+    try:
+        records = list(reader.iter_metadata())
+    except Exception:  # no metadata index (a cut recording)
+        return None
+    for rec in records:
+        if rec.name != RECORDING_METADATA:
+            continue
+        simulated = rec.metadata.get("custom_data.generator") == SIMULATOR_GENERATOR
+        return DEFAULT_STEPS_PER_MESH if simulated else None
+    return None
 
 
 def _recorded_rig(reader: Any) -> tuple[str, str | None] | None:
