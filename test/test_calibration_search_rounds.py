@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from gear_rotor_sim.calibration.candidates_wear_blocked import judged_on_means, static_share
 from gear_rotor_sim.calibration.fit import CandidateFit, FitSettings, FoundEffect
 from gear_rotor_sim.calibration.residual import Score
 from gear_rotor_sim.calibration.search_rounds import MAX_EXAMINED, RoundLedger, examine_round
@@ -223,3 +224,84 @@ def test_a_tilt_without_a_significant_axial_share_keeps_the_baseline_rivals() ->
     fits = [basis(mesh, 1000.0, 0.177, k=2), basis(mis, 700.0, 0.123, k=2)]
     chosen, _, _ = run_round(cal, fits)
     assert chosen is None and cal.refined == []
+
+
+def score_with_means(chi2: float, static_r: np.ndarray) -> Score:
+    """The order family of ``score`` plus a static family of ``len(static_r)`` channel means whose chi^2 is
+    the sum of their squared normalised residuals."""
+    sc = Score(
+        {"order": chi2, "static": float(np.sum(static_r**2))},
+        {"order": N, "static": static_r.size},
+        np.ones(1),
+        {},
+        {},
+    )
+    sc.static_r = np.asarray(static_r, dtype=float)
+    return sc
+
+
+@dataclass
+class MeansCalibrator(ScriptedCalibrator):
+    """``ScriptedCalibrator`` whose verified scores carry the channel means too."""
+
+    def _refine(self, f: CandidateFit, accepted: list[Any]) -> CandidateFit:
+        self.refined.append(f.effect.label)
+        r = self.verified_static.get(f.effect.label, np.array([10.1, 0.5, 0.5, 0.5]))
+        return CandidateFit(f.effect, score_with_means(self.verified_chi2[f.effect.label], r), None, f.k, {})
+
+
+@pytest.mark.parametrize("explains_means", [True, False])
+def test_a_wear_that_explains_the_mean_holding_the_baseline_sets_back_is_judged_on_the_means(
+    explains_means: bool,
+) -> None:
+    """The blind wear record's round 0 in miniature (candidates_wear_blocked.py, Sec. 8.78): the DTE mean
+    10.1 sigma off (static chi^2 102.76 for 4 means, excess 98.76); the mesh set (basis 1500) verified at
+    chi^2 1000 moves it to 11 and is not taken. The wear (basis 600, 20 % of the whole excess, < 25 %)
+    brings the mean to 1.0 sigma on its basis runs and its full run (static chi^2 1.75: 102.3 % of the means'
+    excess), verified at order chi^2 1700: 501.0 of the whole excess 2102.8 (23.8 % < 25 %), Delta BIC 400 +
+    101.0 - ln 100 = 496.4. It is examined, the held-back mesh set is no rival, and it is taken on the means'
+    share. A wear that leaves the mean where it is (static share 0) is skipped for its share, as
+    before the rule."""
+    mesh = MeshStiffnessDamping(stiffness_scale=1.4)
+    off, fixed = np.array([10.1, 0.5, 0.5, 0.5]), np.array([1.0, 0.5, 0.5, 0.5])
+    wear_means = fixed if explains_means else off
+    cal = MeansCalibrator(
+        {mesh.label: 1000.0, WEAR.label: 1700.0},
+        verified_static={mesh.label: np.array([11.0, 0.5, 0.5, 0.5]), WEAR.label: wear_means},
+    )
+    now = score_with_means(CHI2_NOW, off)
+    fits = [
+        CandidateFit(mesh, score_with_means(CHI2_NOW - 1500.0, off), None, 2, {}, 1500.0, 0.5),
+        CandidateFit(WEAR, score_with_means(CHI2_NOW - 600.0, wear_means), None, 1, {}, 600.0, 0.20),
+    ]
+    not_claimed: list[FoundEffect] = []
+    chosen = examine_round(cal, fits, fits, now, N, [], not_claimed, set())
+    assert any(n.startswith(f"{mesh.label}: baseline update not taken") for n in cal.notes), cal.notes
+    if not explains_means:
+        assert chosen is None and cal.refined == [mesh.label], cal.notes
+        return
+    assert chosen is not None, cal.notes
+    ver, runner_up = chosen
+    assert ver.effect is WEAR and runner_up == -np.inf
+    static_before, static_after = float(np.sum(off**2)), float(np.sum(fixed**2))
+    assert ver.delta_bic == pytest.approx(400.0 + static_before - static_after - PENALTY, rel=1e-12)
+    assert ver.explained == pytest.approx((400.0 + static_before - static_after) / (2000.0 + static_before))
+    assert any("judged on the channel means" in n for n in cal.notes), cal.notes
+
+
+def test_static_share_and_who_is_judged_on_the_means_by_hand() -> None:
+    """The static family's excess above one per mean and the share a fit removes; only a tooth wear in a
+    round with a held-back baseline set, below the minimum share of the whole excess and removing at least
+    that share of the means' excess, is judged on the means."""
+    before = score_with_means(CHI2_NOW, np.array([10.0, 2.0, 0.0, 0.0]))  # chi^2 104, excess 100
+    after = score_with_means(CHI2_NOW, np.array([1.0, 2.0, 0.0, 0.0]))  # chi^2 5
+    assert static_share(before, after) == pytest.approx(0.99, rel=1e-12)
+    assert static_share(before, before) == 0.0
+    within = score_with_means(CHI2_NOW, np.array([1.0, 1.0, 0.0, 0.0]))  # chi^2 2 for 4 means
+    assert static_share(within, before) == 0.0  # the means within their noise: no excess to explain
+    assert static_share(score(CHI2_NOW), after) == 0.0  # no static family
+    assert judged_on_means(WEAR, True, 0.2, 0.99, 0.25)
+    assert not judged_on_means(WEAR, False, 0.2, 0.99, 0.25)  # no baseline set held back
+    assert not judged_on_means(WEAR, True, 0.2, 0.2, 0.25)  # the means' share too small
+    assert not judged_on_means(WEAR, True, 0.3, 0.99, 0.25)  # passes on the whole record: judged as before
+    assert not judged_on_means(INNER, True, 0.2, 0.99, 0.25)

@@ -38,6 +38,7 @@ import numpy as np
 from gear_rotor_sim.calibration.baseline_gear_inertia import mode_placement_applies, tooth_with_mode_placed
 from gear_rotor_sim.calibration.candidates_tooth_dte import confirmed_or_fallback
 from gear_rotor_sim.calibration.candidates_tooth_share import min_share
+from gear_rotor_sim.calibration.candidates_wear_blocked import judged_on_means, static_share
 from gear_rotor_sim.calibration.radial_static import moved_judged_mean
 from gear_rotor_sim.faults import BASELINE_TYPES, Effect, GearMisalignment, ToothDamage
 
@@ -116,14 +117,17 @@ class RoundLedger:
         """Whether ``fit`` was refused in this round."""
         return id(fit) in self._refused
 
-    def runner_up(self, fit: Any, effects_only: bool = False) -> float:
+    def runner_up(self, fit: Any, effects_only: bool = False, skip: Sequence[Any] = ()) -> float:
         """Largest Delta BIC among the other admissible, unrefused candidates (``-inf`` if none).
 
         A verified candidate counts with its verified value, the others with their basis-run value.
-        With ``effects_only`` the baseline sets do not compete (:func:`baseline_no_rival`).
+        With ``effects_only`` the baseline sets do not compete (:func:`baseline_no_rival`); the fits in
+        ``skip`` do not compete either (baseline sets held back by an off mean that ``fit`` explains:
+        ``candidates_wear_blocked.py``).
         """
-        skip = {id(fit), *self._refused, *(self._baseline if effects_only else ())}
-        vals = [self._verified.get(k, b) for k, b in self._basis.items() if k not in skip]
+        left_out = {id(fit), *self._refused, *(id(s) for s in skip)}
+        left_out |= self._baseline if effects_only else set()
+        vals = [self._verified.get(k, b) for k, b in self._basis.items() if k not in left_out]
         return max(vals) if vals else -np.inf
 
 
@@ -173,12 +177,20 @@ def examine_round(
 
     ledger = RoundLedger(admissible)
     examined = 0
+    blocked: list[CandidateFit] = []  # baseline sets refused for moving an off channel mean further
     for f in fits:
         if examined >= MAX_EXAMINED:
             break
         if f in admissible:
             examined += 1
         share = max(f.explained, f.comb_explained if f in admissible else 0.0)
+        # a wear while an off mean holds the baseline sets back: judged on the means too
+        # (candidates_wear_blocked.py, Sec. 8.78)
+        on_means = judged_on_means(
+            f.effect, bool(blocked), share, static_share(cur_score, f.score), min_share(cal, f.effect)
+        )
+        if on_means:
+            share = max(share, static_share(cur_score, f.score))
         if f.delta_bic <= cal.fit.bic_threshold:
             break
         # against a reference: a tooth with the gear inertia that places the mesh mode, judged on its full
@@ -202,7 +214,7 @@ def examine_round(
         except (ValueError, RuntimeError) as exc:
             cal.notes.append(f"{f.effect.label}: refinement failed ({exc}); not claimed")
             continue
-        runner_up = ledger.runner_up(f, baseline_no_rival(cal, f))
+        runner_up = ledger.runner_up(f, baseline_no_rival(cal, f), skip=blocked if on_means else ())
         if ver.fallback is not None:
             ver = confirmed_or_fallback(cal, ver, f, cur_score, runner_up)
         dbic, expl = verified_gain(cur_score, ver.score, f.k, n_features)
@@ -219,6 +231,7 @@ def examine_round(
                     f"{ver.effect.label}: baseline update not taken, it moves a channel mean "
                     f"that is {off:.3g} sigma off further away"
                 )
+                blocked.append(f)
                 # not refused: a baseline set returns in the next round, so it still competes here
                 continue
             if dbic > cal.fit.bic_threshold:
@@ -252,11 +265,18 @@ def examine_round(
             ledger.refuse(f)
             cal.notes.append(f"{ver.effect.label}: not claimed ({verdict})")
             continue
-        if (
-            dbic > cal.fit.bic_threshold
-            and max(expl, f.comb_explained) >= min_share(cal, f.effect)
-            and p_sep >= 0.5
-        ):
+        if on_means:
+            expl_means = static_share(cur_score, ver.score)
+            if max(expl, f.comb_explained) < min_share(cal, f.effect) <= expl_means:
+                cal.notes.append(
+                    f"{ver.effect.label}: judged on the channel means, which hold the baseline sets back "
+                    f"({', '.join(b.effect.label for b in blocked)}): {100 * expl_means:.3g} % of their "
+                    f"excess against {100 * expl:.3g} % of the whole record's (candidates_wear_blocked.py)"
+                )
+            expl_share = max(expl, f.comb_explained, expl_means)
+        else:
+            expl_share = max(expl, f.comb_explained)
+        if dbic > cal.fit.bic_threshold and expl_share >= min_share(cal, f.effect) and p_sep >= 0.5:
             ver.delta_bic, ver.explained = dbic, expl
             return ver, runner_up
         if p_sep < 0.5:
