@@ -63,6 +63,7 @@ from gear_rotor_sim.calibration.candidates_tooth_path import (
 from gear_rotor_sim.calibration.channel_conventions import check_conventions
 from gear_rotor_sim.calibration.claim_check import apply_claim_checks
 from gear_rotor_sim.calibration.confirm_updated import stalled_round_step
+from gear_rotor_sim.calibration.contact_mesh import contact_mesh_screen
 from gear_rotor_sim.calibration.dte_zero import dte_zero_issues
 from gear_rotor_sim.calibration.features_bearing import impulse_note
 from gear_rotor_sim.calibration.features_rattle import apply_rattle_uncertainty
@@ -331,6 +332,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
                 )
                 for e in self.baseline
             ]
+        if self.fit_baseline and not baseline_only:
+            # the model's teeth separate where the record's DTE mean says contact (contact_mesh.py)
+            baseline_updates += contact_mesh_screen(self, score_b)
         cur_raw = self.base_raw
         cur_feat = self._features(cur_raw)
         cur_score = self.cmp.score(cur_feat)
