@@ -148,6 +148,19 @@ class AxialReadings:
         )
 
 
+def axial_channels(cal: Any) -> tuple[int, ...]:
+    """The axial bearing-force channels of a set-up calibrator that have a static feature (none without the
+    static family)."""
+    cmp = cal.cmp
+    if "static" not in cmp.families:
+        return ()
+    return tuple(
+        k
+        for k, c in enumerate(cal.m.channels)
+        if c.quantity == "bearing_force" and c.direction == "z" and cmp.static_mask[k]
+    )
+
+
 def axial_readings(cal: Any) -> AxialReadings | None:
     """The axial channels' static residuals on a set-up calibrator at the declared temperature, and the
     model's axial sensitivity from one run ``DT_PROBE_C`` above it (below it where that leaves the material
@@ -159,11 +172,7 @@ def axial_readings(cal: Any) -> AxialReadings | None:
     if "static" not in cmp.families:
         return None
     chans = cal.m.channels
-    axial = tuple(
-        k
-        for k, c in enumerate(chans)
-        if c.quantity == "bearing_force" and c.direction == "z" and cmp.static_mask[k]
-    )
+    axial = axial_channels(cal)
     if not axial:
         return None
     feats = cal._features(cal.base_raw)

@@ -245,6 +245,8 @@ def fit_reference_baseline(
             f"the reference record itself shows {found}: not carried (an operating condition of that "
             "record); its baseline was fitted with it"
         )
+    # its sets at the bounds of their plausible range (baseline_bounds.py): carried, and said so
+    notes += [n for n in r.notes if n.startswith("at bound: baseline ")]
     op = cal.m.operating_point  # the measured speed where the declared one was corrected (speed_check.py)
     notes += [
         i

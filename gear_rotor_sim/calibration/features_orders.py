@@ -27,6 +27,11 @@ from scipy.ndimage import median_filter
 
 from gear_rotor_sim.analysis.signals import resample_to_angle
 
+#: highest frequency of a synchronous part as a fraction of the sample rate: above it the 4x upsampling
+#: filter's transition band (``_upsampling_taps``) bends the orders, so content there (a mesh harmonic
+#: between 0.45 fs and the Nyquist frequency too) stays in the non-synchronous part
+SYNCHRONOUS_TOP_FRACTION = 0.45
+
 
 def _linear_interp_response(freq_ratio: np.ndarray) -> np.ndarray:
     """Mean amplitude response of linear interpolation at uniformly spread fractional positions:
@@ -71,7 +76,8 @@ def synchronous_part(
     shaft_hz : float
         Shaft rotation frequency, Hz.
     f_max_hz : float, optional
-        Highest frequency kept in the synchronous part (default ``0.45 fs``).
+        Highest frequency kept in the synchronous part (default and at most
+        ``SYNCHRONOUS_TOP_FRACTION fs``, 0.45 fs).
     significance : float
         Orders whose averaged amplitude is below this many standard errors are not synchronous
         content (0 keeps every order: the plain synchronous average).
@@ -107,7 +113,8 @@ def synchronous_part(
         var = np.maximum(var, median_filter(var, size=2 * floor_bins + 1, mode="nearest"))
     k = np.arange(coef.size)
     f_k = k * shaft_hz
-    f_top = 0.45 * fs if f_max_hz is None else min(f_max_hz, 0.45 * fs)
+    top = SYNCHRONOUS_TOP_FRACTION * fs
+    f_top = top if f_max_hz is None else min(f_max_hz, top)
     coef[np.abs(coef) ** 2 <= significance**2 * var] = 0.0
     coef[0] = 0.0
     coef[f_k > f_top] = 0.0

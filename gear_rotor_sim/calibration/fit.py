@@ -56,6 +56,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_rotor_sim.calibration.baseline_bounds import baseline_bound_notes
 from gear_rotor_sim.calibration.candidates_tooth_path import (
     contact_tooth_path,
 )
@@ -89,6 +90,7 @@ from gear_rotor_sim.calibration.measurement import Measurement
 from gear_rotor_sim.calibration.model_steps import StepChoice
 from gear_rotor_sim.calibration.model_window import model_window_samples
 from gear_rotor_sim.calibration.pitch_baseline import pitch_round
+from gear_rotor_sim.calibration.reference_point import rerun_off_point
 from gear_rotor_sim.calibration.residual import (
     REFERENCE_STEPS_PER_MESH,
     Comparison,
@@ -309,6 +311,11 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         score0 = self.cmp.score(self._features(self.base_raw))
         self.n_total = score0.n_total
         self.log(f"nominal model: error {score0.error:.3g}")
+        # a held reference whose machine scores this point worse than the nominal one: set aside
+        # (reference_point.py)
+        again = rerun_off_point(self, score0)
+        if again is not None:
+            return again
         screened = self._static_screen(score0)
         score_b = score0
         if screened is not None:
@@ -586,6 +593,12 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         self.m.issues.extend(dte_zero_issues(self, found))
         # a claim that leaves content the model lacks in its own signature is not confident (claim_check.py)
         apply_claim_checks(result, self.runner.cfg)
+        # baseline parameters at the bounds of their plausible range: named (baseline_bounds.py)
+        result.notes.extend(
+            baseline_bound_notes(
+                baseline_updates, self.settings.gain_bounds, self.settings.transfer_slope_bounds
+            )
+        )
         # mains pickup on a shaft order on one or two channels: diagnosed again without it (mains_repair.py)
         return rerun_without_pickup(self, result, cur_feat, cur_score)
 

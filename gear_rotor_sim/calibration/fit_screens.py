@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gear_rotor_sim.calibration.axial_zero import axial_channels
 from gear_rotor_sim.calibration.candidates_wear_contact import (
     screen_wear_after_baseline_update,
 )
@@ -28,6 +29,7 @@ from gear_rotor_sim.calibration.residual import (
     ModelFeatures,
     Score,
 )
+from gear_rotor_sim.calibration.temperature_trigger import screen_fires
 from gear_rotor_sim.faults import (
     Effect,
     TemperatureOffset,
@@ -42,7 +44,8 @@ class Screening:
 
         The channel means (bearing forces, DTE) hardly depend on the uncertain stiffness and damping
         scales but the axial bearing load grows with the temperature (``k_s a dT L / (1 + 2 k_s/k_b)``).
-        When they disagree with the declared temperature (static chi^2 > 9 per mean + 25) the offset
+        When they disagree with the declared temperature (static chi^2 > 9 per mean + 25, or an axial
+        bearing-force mean more than 3 sigma off: ``temperature_trigger.py``) the offset
         is fitted to the means alone (bounded Brent on full simulations) and accepted if it brings
         every mean within 3 sigma; the dynamic features must then confirm it (BIC, below). Fitting
         the baseline first would let the stiffness and damping scales absorb the temperature's
@@ -50,8 +53,9 @@ class Screening:
         """
         if "static" not in score.chi2 or not any(isinstance(e, TemperatureOffset) for e in self.candidates):
             return None
-        n_s = score.n["static"]
-        if score.chi2["static"] <= 9.0 * n_s + 25.0:
+        # the channel means as a whole, or the axial bearing force alone (temperature_trigger.py)
+        idx = [int(i) for i in np.flatnonzero(self.cmp.static_mask)]
+        if not screen_fires(score.chi2["static"], score.static_r, idx, axial_channels(self)):
             return None
         e = TemperatureOffset()
         lo, hi = self._bounds(e)

@@ -98,6 +98,11 @@ class FitSettings:
     #: they stand out (significant, spread, not a smooth wave), added to the machine's baseline
     #: (``pitch_baseline.py``, Sec. 8.68); False: not read
     pitch_pattern: bool = True
+    #: against a held reference: the record scored on the held and on the nominal machine first; where the
+    #: held one's error is more than ``reference_point.HELD_OVER_NOMINAL`` times the nominal one's, the
+    #: reference is set aside and the record diagnosed with its own baseline (``reference_point.py``,
+    #: Sec. 8.77); False: the reference held whatever it scores
+    reference_point_check: bool = True
 
 
 @dataclass

@@ -12,6 +12,7 @@ import numpy as np
 
 from gear_rotor_sim.analysis.signals import analytic_band
 from gear_rotor_sim.calibration.envelope_hunting import MIN_SHARE, hunting_part, hunting_share
+from gear_rotor_sim.calibration.envelope_periodic import non_synchronous_share
 from gear_rotor_sim.calibration.features_bearing import static_sensor_gains
 from gear_rotor_sim.calibration.features_envelope_noise import bin_sum_variance_factor, envelope_noise_shape
 from gear_rotor_sim.calibration.features_orders import remove_synchronous
@@ -142,7 +143,9 @@ class EnvelopeFeatures:
         the reference temperature: a static thermal load of 1846 N with a fluctuation of 5e-13 N at
         125 C) has no dynamics to be periodic or not, and its round-off is invisible under the
         measured noise; judged on its own RMS it read as 100 % non-synchronous and switched every
-        healthy record above 25 C to the whole-signal envelope.
+        healthy record above 25 C to the whole-signal envelope. The non-synchronous part is taken below
+        the synchronous average's top frequency (0.45 fs): a mesh harmonic above it is periodic but
+        stays in that part (``envelope_periodic.py``, docs/history/calibration_sessions.md Sec. 8.76).
         """
         self.env_non_sync = bool(self.s.envelope_non_synchronous and "order" in self.families and self.shafts)
         if self.env_non_sync:
@@ -158,10 +161,9 @@ class EnvelopeFeatures:
             idx = np.flatnonzero(self.env_use)
             ratios = []
             for c in idx:
-                x = model[:, c] - model[:, c].mean()
-                sd = max(float(np.std(x)), float(np.std(self.y[:, c])))
-                if sd > 0:
-                    ratios.append(float(np.std(self._envelope_input(x))) / sd)
+                share = non_synchronous_share(model[:, c], self.y[:, c], self.fs, self._envelope_input)
+                if share is not None:
+                    ratios.append(share)
             worst = max(ratios, default=0.0)
             if worst > self.s.envelope_periodic_limit:
                 self.env_non_sync = False
