@@ -161,6 +161,13 @@ def axial_channels(cal: Any) -> tuple[int, ...]:
     )
 
 
+def static_z(cal: Any, score: Any, channel: int) -> float:
+    """The static residual (sigmas) of ``channel``'s mean in ``score`` (``Score.static_r`` holds one entry per
+    channel of ``cal.cmp.static_mask``); 0 for a channel without a static feature."""
+    idx = [int(i) for i in np.flatnonzero(cal.cmp.static_mask)]
+    return float(score.static_r[idx.index(channel)]) if channel in idx else 0.0
+
+
 def axial_readings(cal: Any) -> AxialReadings | None:
     """The axial channels' static residuals on a set-up calibrator at the declared temperature, and the
     model's axial sensitivity from one run ``DT_PROBE_C`` above it (below it where that leaves the material
@@ -177,10 +184,9 @@ def axial_readings(cal: Any) -> AxialReadings | None:
         return None
     feats = cal._features(cal.base_raw)
     sc = cmp.score(feats)
-    idx = [int(i) for i in np.flatnonzero(cmp.static_mask)]
     z = np.zeros(len(chans))
     for k in axial:
-        z[k] = float(sc.static_r[idx.index(k)])
+        z[k] = static_z(cal, sc, k)
     g = np.asarray(sc.gains, float)
     residual = np.asarray(cmp.d_static - g * feats.static, float)
     bounds = cal._bounds(TemperatureOffset())

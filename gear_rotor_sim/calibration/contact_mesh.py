@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from gear_rotor_sim.calibration.axial_zero import static_z
 from gear_rotor_sim.calibration.candidates_wear_reference import dte_channel
 
 if TYPE_CHECKING:
@@ -57,13 +58,6 @@ def pick_scale(trials: list[tuple[float, float, float]]) -> tuple[float, float] 
     return min(ok, key=lambda t: t[1]) if ok else None
 
 
-def _dte_z(cal: Calibrator, score: Score, c: int) -> float:
-    import numpy as np
-
-    idx = [int(i) for i in np.flatnonzero(cal.cmp.static_mask)]
-    return float(score.static_r[idx.index(c)]) if c in idx else 0.0
-
-
 def contact_mesh_screen(cal: Calibrator, score: Score) -> list[FoundEffect]:
     """The mesh set taken before the search where the model rattles and the record's DTE mean says contact
     (module docstring); ``[]`` where the rule does not apply or no scale qualifies. Joins the set to the
@@ -76,7 +70,7 @@ def contact_mesh_screen(cal: Calibrator, score: Score) -> list[FoundEffect]:
     c = dte_channel(list(cal.cmp.names), 1, len(cal.runner.cfg.meshes))
     if c is None or not cal.cmp.static_mask[c]:
         return []
-    z0 = _dte_z(cal, score, c)
+    z0 = static_z(cal, score, c)
     if not applies(float(cal.base_contact_loss), z0):
         return []
     runs = {}
@@ -86,7 +80,7 @@ def contact_mesh_screen(cal: Calibrator, score: Score) -> list[FoundEffect]:
         feats = cal._features(cal._raw((e,)))
         cal._refit_transfer(feats)
         runs[s] = cal.cmp.score(feats)
-        z = _dte_z(cal, runs[s], c)
+        z = static_z(cal, runs[s], c)
         trials.append((s, z, runs[s].balanced_chi2))
         tried.append(f"x{s:g}: DTE mean {z:+.3g} sigma, contact loss {cal.runner.last_contact_loss:.3g}")
     picked = pick_scale(trials)
