@@ -68,11 +68,14 @@ from lumped_gearbox import Gearbox, parse_fault
 #: the draw's seed (stated before the draw: the session's date)
 DRAW_SEED = 20261128
 #: the blind sets, each pre-registered before it was run: draw seed and case file. Set 1 (session 26) was
-#: run once and is development data since; set 2 (seed: the date and session 27) judges later work.
-#: Tags: ``blind01`` .. in set 1, ``blind2_01`` .. in set 2 (records of both can share a directory).
+#: run once and is development data since; set 2 (seed: the date and session 27) was run once in session 27
+#: and is development data since; set 3 (seed: the date and session 28) judges later work.
+#: Tags: ``blind01`` .. in set 1, ``blind2_01`` .. in set 2, ``blind3_01`` .. in set 3 (records of all sets
+#: can share a directory).
 SETS: dict[int, tuple[int, str, str]] = {
     1: (DRAW_SEED, "calibration_blind_cases.json", "blind"),
     2: (2026112827, "calibration_blind2_cases.json", "blind2_"),
+    3: (2026112828, "calibration_blind3_cases.json", "blind3_"),
 }
 N_CASES = 16
 N_HEALTHY = 3
@@ -314,8 +317,8 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         default=1,
         choices=sorted(SETS),
-        help="blind set (1: seed 20261128, session 26, development data since; 2: seed 2026112827, "
-        "pre-registered in session 27); default 1",
+        help="blind set (1: seed 20261128, session 26; 2: seed 2026112827, session 27; both development "
+        "data since; 3: seed 2026112828, pre-registered in session 28); default 1",
     )
     ci.add_run_arguments(ap, "out/calibration_blind")
     ap.add_argument("--from-results", nargs="+", metavar="DIR", help="judge the reports already in DIR")

@@ -26,18 +26,24 @@ def test_draw_reproduces_the_committed_cases() -> None:
     assert cb.load_cases() == doc["cases"]
 
 
-def test_second_set_reproduces_its_committed_cases() -> None:
-    """Set 2 (pre-registered in session 27): its own seed and file, other records than set 1's."""
-    seed, name, prefix = cb.SETS[2]
+@pytest.mark.parametrize("blind_set", [2, 3])
+def test_later_sets_reproduce_their_committed_cases(blind_set: int) -> None:
+    """Sets 2 and 3 (pre-registered in sessions 27 and 28): each its own seed and file, records that no
+    earlier set holds."""
+    seed, name, prefix = cb.SETS[blind_set]
     doc = json.loads((BENCH / name).read_text())
     assert doc["draw_seed"] == seed
     assert doc == json.loads(json.dumps(cb.case_document(seed)))
-    assert cb.load_cases(cb.case_file(2)) == doc["cases"]
+    assert cb.load_cases(cb.case_file(blind_set)) == doc["cases"]
     assert all(c["tag"].startswith(prefix) for c in doc["cases"])
-    first = {c["seed"] for c in cb.load_cases()}
-    assert first.isdisjoint(c["seed"] for c in doc["cases"])
-    with pytest.raises(ValueError, match="blind set 3"):
-        cb.case_file(3)
+    earlier = {c["seed"] for s in range(1, blind_set) for c in cb.load_cases(cb.case_file(s))}
+    assert earlier.isdisjoint(c["seed"] for c in doc["cases"])
+
+
+def test_an_unregistered_set_is_refused() -> None:
+    """A set number not in SETS names the allowed ones."""
+    with pytest.raises(ValueError, match=r"blind set 4: allowed \[1, 2, 3\]"):
+        cb.case_file(4)
 
 
 def test_draw_depends_on_its_seed() -> None:
