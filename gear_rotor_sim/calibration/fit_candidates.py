@@ -17,6 +17,8 @@ from gear_rotor_sim.calibration.candidates_crack import fit_shaft_crack
 from gear_rotor_sim.calibration.candidates_misalignment import (
     fit_gear_misalignment,
 )
+from gear_rotor_sim.calibration.candidates_tooth_index import low_order_index_applies, rank_low_orders
+from gear_rotor_sim.calibration.candidates_tooth_path import low_order_mesh_chi2
 from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_scatter
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
@@ -282,11 +284,24 @@ class CandidateFitting:
             # where the teeth separate the tooth comes from the channels at the mesh (fault_path.py)
             return self._chi2(f) if at_mesh is None else channels_chi2(self.cmp, f, at_mesh)
 
+        # in contact with a DTE: every tooth ranked by the low orders at the mesh too, on the same shifted
+        # signatures (candidates_tooth_index.py); the refinement compares the teeth where it decides
+        low_shaft = low_order_index_applies(self, e) if mask is None else None
+        whole_v, low_v = np.full(z, np.inf), np.full(z, np.inf)
         for i in range(z):
-            v = min(index_chi2(cur.combo(sig(d, i), 1.0)) for d in (0.2, 0.45))
+            feats_i = [cur.combo(sig(d, i), 1.0) for d in (0.2, 0.45)]
+            v = min(index_chi2(f) for f in feats_i)
+            whole_v[i] = v
+            if low_shaft is not None:
+                low_v[i] = min(low_order_mesh_chi2(self, f, low_shaft) for f in feats_i)
             if v < best[0]:
                 best = (v, i)
         i_best = best[1]
+        self._low_order_index.pop(e.label, None)
+        if low_shaft is not None:
+            self._low_order_index[e.label] = rank_low_orders(
+                low_v, whole_v, low_order_mesh_chi2(self, cur, low_shaft)
+            )
 
         def obj(d: float) -> float:
             return self._param_chi2(cur.combo(sig(d, i_best), 1.0), e)
