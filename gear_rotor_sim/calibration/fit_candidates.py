@@ -77,9 +77,17 @@ class CandidateFitting:
         return float(math.sqrt(2.0 * red / curv)) if curv > 0 else float("inf")
 
     def _fit_phase_amplitude(
-        self, e: Effect, cur: ModelFeatures, ref: float | None = None
+        self,
+        e: Effect,
+        cur: ModelFeatures,
+        ref: float | None = None,
+        select: list[list[np.ndarray]] | None = None,
     ) -> CandidateFit | None:
-        """Amplitude and phase from two basis runs at amplitude ``ref`` (default a tenth of the bound)."""
+        """Amplitude and phase from two basis runs at amplitude ``ref`` (default a tenth of the bound).
+
+        ``select[c][s]`` (optional): the order features of channel ``c`` on shaft ``s`` that the least
+        squares read (a misaligned wheel's axial line, ``candidates_misalignment.axial_low_orders``); the
+        candidate is scored on every feature as always."""
         amp, ph = e.specs[0], e.specs[1]
         ref = 0.1 * amp.upper if ref is None else ref
         f0 = self._signature(e.with_parameters(**{amp.name: ref, ph.name: 0.0})).scaled(1.0 / ref)
@@ -103,6 +111,8 @@ class CandidateFitting:
                     gc = self.cmp.order_gain(g, ci, s)
                     model = gc * (cur.order[ci][s] + c[0] * f0.order[ci][s] + c[1] * f1.order[ci][s])
                     w = 2.0 / self.cmp.order_sigma2(ci, s, model)
+                    if select is not None:
+                        w = np.where(select[ci][s], w, 0.0)
                     r = self.cmp.d_order[ci][s] - gc * cur.order[ci][s]
                     cols = [gc * f0.order[ci][s], gc * f1.order[ci][s]]
                     for i in range(2):
