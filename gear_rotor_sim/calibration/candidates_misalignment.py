@@ -76,7 +76,8 @@ def fit_gear_misalignment(cal: Calibrator, e: GearMisalignment, cur: ModelFeatur
     """
     # the angle and phase from the axial line below the mesh band (T / r_b and the tilt alone), not from the
     # sidebands m z +- 1, which carry the model's dynamic mesh force (Sec. 8.80)
-    lin = cal._fit_phase_amplitude(e, cur, ref=LINEAR_REF_RAD, select=axial_low_orders(cal.cmp))
+    select = axial_low_orders(cal.cmp) if cal.fit.misalignment_axial else None
+    lin = cal._fit_phase_amplitude(e, cur, ref=LINEAR_REF_RAD, select=select)
     if lin is None:
         return None
     eff = lin.effect
