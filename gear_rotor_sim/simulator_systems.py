@@ -118,7 +118,8 @@ class SystemCache:
 
     @staticmethod
     def _tq(temperature_c: float) -> float:
-        return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
+        # Python's round of a float is numpy's (half to even), without the array call (4000 calls a ramp)
+        return float(round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
     def _thermal_load_model(self) -> ThermalLoad | None:
         """The thermal node load of the default assembly (None for a custom builder)."""
