@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -122,13 +123,15 @@ def test_ramp_span_arrays_equal_a_rebuild(rig: str) -> None:
 
 
 def test_thermal_load_per_material_equals_assembly() -> None:
-    """ThermalLoad (one modulus evaluation per material) equals the element loop of the assembly."""
+    """ThermalLoad (one modulus evaluation per material, memoised per temperature) equals the element
+    loop of the assembly, on a second call and after a pickle round trip (the memo is keyed by id())."""
     cfg = paper_gearbox()
     model = ThermalLoad(cfg)
     assert model.units is not None
     for t in (25.0, 87.3, 125.0):
         ref = GearRotorSystem.from_config(cfg, t).thermal_load
-        assert np.linalg.norm(model(t) - ref) <= 1e-12 * max(np.linalg.norm(ref), 1.0)
+        for m in (model, model, pickle.loads(pickle.dumps(model))):
+            assert np.linalg.norm(m(t) - ref) <= 1e-12 * max(np.linalg.norm(ref), 1.0)
 
 
 def test_interpolated_node_system_against_assembly() -> None:
