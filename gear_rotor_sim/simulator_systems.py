@@ -52,6 +52,12 @@ class _Ramp:
     rate: float
 
     def value(self, t: np.ndarray | float) -> np.ndarray:
+        if isinstance(t, float):  # a scalar time (a few thousand calls a ramp): the same float
+            # operations in the same order as the array path below, without its array calls
+            ds, d = t - self.t0, self.target - self.v0
+            if d == 0.0 or self.rate == np.inf or ds >= abs(d) / self.rate:
+                return np.asarray(self.target)
+            return np.asarray(self.v0 + (1.0 if d > 0.0 else -1.0) * self.rate * ds)
         dt = np.asarray(t, float) - self.t0
         d = self.target - self.v0
         if d == 0.0 or self.rate == np.inf:
