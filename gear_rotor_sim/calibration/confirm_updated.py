@@ -318,6 +318,14 @@ def judge_screened_offset(
         f"{conf.error_with:.3g}: " + ("confirmed" if ok else "not confirmed") + " (Sec. 8.31)"
     )
     cal.log(cal.notes[-1])
+    from gear_rotor_sim.calibration import temperature_reference
+
+    if not ok and temperature_reference.applies(cal):
+        # against a held reference: judged on this record's own baseline (temperature_reference.py, Sec. 8.79)
+        conf = temperature_reference.judge_on_own_baseline(cal, offset)
+        ok = conf.confirmed(cal.fit.bic_threshold, cal.fit.min_explained)
+        cal.notes.append(temperature_reference.note(offset, conf, ok))
+        cal.log(cal.notes[-1])
     return (conf.delta_bic, conf.explained) if ok else None
 
 
