@@ -28,7 +28,8 @@ baseline is updated, not diagnosed)*.
   the baseline again on the model with the offset.
   Against a held reference (``--baseline``) the baseline is not re-fitted: the held model *is* the
   updated one, and the confirmation scores it with the reference's carrier tolerance (the model-form
-  floor the rounds use), which the screen did not.
+  floor the rounds use), which the screen did not; where the held machine refuses it, the offset is judged
+  on the record's own baseline as without a reference (``temperature_reference.py``, Sec. 8.79).
 * :func:`updated_baseline_step` -- a round on the nominal model where no candidate passes the
   acceptance rules: the best baseline set by Delta BIC is verified (full simulation) and taken if it
   still beats the BIC threshold and moves no channel mean that is off further away; the search then

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
 def applies(cal: Calibrator) -> bool:
     """Whether the calibrator holds a reference's baseline and the rule is on (``FitSettings``)."""
-    return bool(not cal.fit_baseline and getattr(cal.fit, "offset_on_own_baseline", False))
+    return bool(not cal.fit_baseline and cal.fit.offset_on_own_baseline)
 
 
 @contextmanager
