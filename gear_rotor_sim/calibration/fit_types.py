@@ -104,6 +104,10 @@ class FitSettings:
     #: reference is set aside and the record diagnosed with its own baseline (``reference_point.py``,
     #: Sec. 8.77); False: the reference held whatever it scores
     reference_point_check: bool = True
+    #: against a held reference: a screened temperature offset the held machine refuses (its means matched)
+    #: judged on this record's own baseline, as without a reference (``temperature_reference.py``,
+    #: Sec. 8.79); False: the held machine's refusal stands
+    offset_on_own_baseline: bool = True
 
 
 @dataclass
