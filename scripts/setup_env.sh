@@ -24,6 +24,27 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   echo "$want" > "$stamp"
 fi
 
+# Compile the numba kernels ahead (cached next to the sources), so that the first `ros2 run` after the
+# set-up starts as fast as later ones; skipped when the cache is current (docs/ros.md, "Start-up").
+# The warm-up needs numpy, scipy and numba only, not the ROS build: it runs beside the colcon build (on
+# the other core), importing the package from the checkout. Without NUMBA_CACHE_DIR numba caches next
+# to the source files, and colcon's --symlink-install reaches the same directory, so the node loads what
+# this compiles. With NUMBA_CACHE_DIR set numba keys its cache by the path as imported: then the warm-up
+# runs after the build, from outside the checkout, importing the package from the install as the node does.
+# The early warm-up activates the venv only (install/setup.bash is being written by the build).
+warm_up() {
+  (
+    set +u
+    if [ "$1" = early ]; then . .venv/bin/activate; else . scripts/env.sh; cd /; fi
+    OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} python -m gear_rotor_sim.warmup --if-changed
+  )
+}
+warm_pid=
+if [ -z "${NUMBA_CACHE_DIR:-}" ]; then
+  warm_up early &
+  warm_pid=$!
+fi
+
 # Build the interface package and the ament_python package into install/ (trap 2: both base paths).
 msg_stamp=install/.gear_rotor_sim_build
 src_hash=$(cat msg_defs/package.xml msg_defs/CMakeLists.txt msg_defs/msg/*.msg package.xml setup.py setup.cfg \
@@ -46,14 +67,9 @@ fi
 if ! (cd / && "$ROOT/.venv/bin/python" -c "import gear_rotor_sim") 2>/dev/null; then
   .venv/bin/pip install -q --no-deps -e .
 fi
-# Compile the numba kernels ahead (cached next to the sources), so that the first `ros2 run` after the
-# set-up starts as fast as later ones; skipped when the cache is current (docs/ros.md, "Start-up").
-# Run in the workspace's environment from outside the checkout, so that the package is imported from
-# the colcon install as the node imports it: with NUMBA_CACHE_DIR set, numba keys its cache by that path.
-(
-  set +u
-  . scripts/env.sh
-  cd /
-  OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} python -m gear_rotor_sim.warmup --if-changed
-)
+if [ -n "$warm_pid" ]; then
+  wait "$warm_pid" || { echo "[setup] numba warm-up failed"; exit 1; }
+else
+  warm_up late
+fi
 echo "[setup] ready: . scripts/env.sh to use ROS from this checkout"

@@ -23,6 +23,7 @@ from scipy.optimize import brentq
 
 from gear_rotor_sim.calibration.baseline import fit_reference_baseline
 from gear_rotor_sim.calibration.fit import Calibrator
+from gear_rotor_sim.calibration.fit_types import FitSettings
 from gear_rotor_sim.calibration.measurement import load_measurement
 from gear_rotor_sim.faults import tilted_contact_offset, tilted_contact_stiffness_factor
 
@@ -75,7 +76,9 @@ def test_healthy_independent_records_claim_no_effect(records, which: str, reques
 
 @pytest.mark.acceptance
 def test_gear_tooth_damage_named_first_with_wheel_and_tooth(records) -> None:
-    r = _calibrate(records["gear_tooth"])
+    # the first effect is what is asserted: the search stops there (Secs. 8.74, 8.81: the same effect,
+    # depth, errors and mesh scale as the full search, 168 model runs instead of 219)
+    r = _calibrate(records["gear_tooth"], fit_settings=FitSettings(max_effects=1))
     assert r.effects, r.conclusion
     first = r.effects[0]
     assert first.label == "tooth_damage@gear", [(e.label, e.parameters) for e in r.effects]
@@ -124,7 +127,9 @@ def _assert_mesh_scale_is_the_ratio_of_the_two_models(r) -> None:
 @pytest.mark.acceptance
 def test_temperature_offset_from_the_static_content(records) -> None:
     truth = json.loads(records["temperature"].with_suffix(".truth.json").read_text())
-    r = _calibrate(records["temperature"])
+    # the first effect is what is asserted: the search stops there (Sec. 8.81: the same offset, status and
+    # confidence as the full search, 22 model runs instead of 141)
+    r = _calibrate(records["temperature"], fit_settings=FitSettings(max_effects=1))
     assert r.effects and r.effects[0].name == "temperature_offset", [
         (e.label, e.parameters) for e in r.effects
     ]
