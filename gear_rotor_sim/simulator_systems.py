@@ -52,6 +52,12 @@ class _Ramp:
     rate: float
 
     def value(self, t: np.ndarray | float) -> np.ndarray:
+        if isinstance(t, float):  # a scalar time (a few thousand calls a ramp): the same float
+            # operations in the same order as the array path below, without its array calls
+            ds, d = t - self.t0, self.target - self.v0
+            if d == 0.0 or self.rate == np.inf or ds >= abs(d) / self.rate:
+                return np.asarray(self.target)
+            return np.asarray(self.v0 + (1.0 if d > 0.0 else -1.0) * self.rate * ds)
         dt = np.asarray(t, float) - self.t0
         d = self.target - self.v0
         if d == 0.0 or self.rate == np.inf:
@@ -118,7 +124,8 @@ class SystemCache:
 
     @staticmethod
     def _tq(temperature_c: float) -> float:
-        return float(np.round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
+        # Python's round of a float is numpy's (half to even), without the array call (4000 calls a ramp)
+        return float(round(temperature_c / TEMPERATURE_QUANTUM_C) * TEMPERATURE_QUANTUM_C)
 
     def _thermal_load_model(self) -> ThermalLoad | None:
         """The thermal node load of the default assembly (None for a custom builder)."""

@@ -189,6 +189,67 @@ def test_against_a_held_reference_the_held_model_is_the_updated_one() -> None:
     assert cal.baseline == [MESH]
 
 
+# ------------------------------------------------- a held reference whose machine refuses the offset
+#: a held reference's machine (its scales fitted at another speed): the order carriers misfit by 8000 and the
+#: offset, which brings the means in, moves them to 9000 (blind2_03 of the second blind draw in miniature,
+#: temperature_reference.py); without it the machine is the nominal one of MACHINE above
+HELD = SimpleNamespace(label="held_reference_sets", parameters=lambda: {})
+HELD_MACHINE = {
+    **MACHINE,
+    frozenset({HELD.label}): (8000.0, (12.0, 2.0, 1.0, 1.0)),
+    frozenset({HELD.label, OFFSET.label}): (9000.0, (1.0, 0.5, 0.5, 0.5)),
+}
+
+
+def held_screen(machine: dict, **fit: Any) -> ScriptedScreen:
+    cal = ScriptedScreen(
+        machine,
+        fit=FitSettings(confirm_on_updated=True, **fit),
+        fit_baseline=False,
+        fixed_carrier_tolerance=0.4,
+        baseline=[HELD],
+    )
+    cal.base_raw = cal._raw(())
+    return cal
+
+
+def test_an_offset_the_held_machine_refuses_is_judged_on_the_records_own_baseline() -> None:
+    """Held: 8150 -> 9001.75, Delta BIC -851.75 - ln 504: refused (on the held model and, no set re-fitted,
+    against it). On the record's own baseline it is the first test's judgement: B0 = {mesh}, B_T = {mesh,
+    bearing}, Delta BIC 448.25 - 3 ln 504 = 429.6, 101.5 % of the means' excess: confirmed. Switched off
+    (``offset_on_own_baseline=False``) the held machine's refusal stands."""
+    cal = held_screen(HELD_MACHINE)
+    nominal = machine_score(frozenset({HELD.label}), HELD_MACHINE)
+    screened = machine_score(frozenset({HELD.label, OFFSET.label}), HELD_MACHINE)
+    judged = judge_screened_offset(cal, nominal, screened, OFFSET)
+    assert judged is not None, cal.notes
+    assert judged[0] == pytest.approx(448.25 - 3 * math.log(N_ALL), rel=1e-12)
+    assert "not confirmed (Sec. 8.31)" in cal.notes[-2]  # the held machine's own judgement, reported
+    assert "own baseline" in cal.notes[-1] and "confirmed, taken into the held machine" in cal.notes[-1]
+    # the held machine is left as it was: the rounds go on against it with the offset
+    assert cal.baseline == [HELD] and not cal.fit_baseline and cal.fixed_carrier_tolerance == 0.4
+    assert cal.pre_effects == [] and cal.base_raw == frozenset({HELD.label})
+    off = held_screen(HELD_MACHINE, offset_on_own_baseline=False)
+    assert judge_screened_offset(off, nominal, screened, OFFSET) is None
+    assert "own baseline" not in off.notes[-1]
+
+
+def test_an_offset_the_records_own_baseline_does_not_confirm_stays_refused() -> None:
+    """The held machine refuses it and so does the record's own baseline (the second test's machine:
+    Delta BIC 3150 - 3301.75 - 3 ln 504 = -170.4): nothing is screened."""
+    worse = dict(HELD_MACHINE)
+    worse[frozenset({OFFSET.label, MESH.label})] = (3400.0, (1.0, 0.5, 0.5, 0.5))
+    worse[frozenset({OFFSET.label, MESH.label, BEARING.label})] = (3300.0, (1.0, 0.5, 0.5, 0.5))
+    cal = held_screen(worse)
+    nominal = machine_score(frozenset({HELD.label}), worse)
+    screened = machine_score(frozenset({HELD.label, OFFSET.label}), worse)
+    assert judge_screened_offset(cal, nominal, screened, OFFSET) is None
+    assert "own baseline" in cal.notes[-1] and cal.notes[-1].endswith(
+        "not confirmed (temperature_reference.py, Sec. 8.79)"
+    )
+    assert cal.baseline == [HELD] and not cal.fit_baseline
+
+
 # --------------------------------------------------------------------------- a stalled round
 N = 100
 CHI2_NOW = 2100.0  # nominal model: excess 2000

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -99,30 +100,38 @@ def test_ramp_span_arrays_equal_a_rebuild(rig: str) -> None:
     sim = Simulator(cfg, speed_rpm=3000.0, temperature_c=25.0)
     sim.advance(0.1)
     sim.set_targets(temperature_c=45.0)
-    sim.advance(0.3)  # at about 31 C: between the basis nodes 30 and 35, on node 30's span
-    st = sim._stepper
-    assert st.system.temperature_c not in (30.0, 35.0) and 30.0 in sim._spans
-    fresh = NewmarkStepper(st.system, sim.specs, sim.effects, locate_events=sim.locate_events)
-    fresh.modal_cutoff_hz = st.modal_cutoff_hz
-    fresh.exact_map = st.exact_map
-    assert st.modal_cutoff_hz is not None and st.exact_map == (rig != "paper")
-    fresh.set_operating_point(st.map.basis.omega, st.map.dt, sim.state)
-    for obj, ref in ((st.map, fresh.map), (st.gear, fresh.gear)):
-        a, b = _flat(obj), _flat(ref)
-        assert a.keys() == b.keys()
-        for k in b:
-            scale = np.max(np.abs(b[k])) if b[k].size else 0.0
-            assert np.max(np.abs(a[k] - b[k]), initial=0.0) <= 1e-9 * scale, k
+    seen = []
+    # at about 31 C, then 0.5 C on: two quanta between the basis nodes 30 and 35 on node 30's span (the
+    # span refills its arrays in place at each quantum)
+    for step_s in (0.3, 0.025):
+        sim.advance(step_s)
+        st = sim._stepper
+        assert st.system.temperature_c not in (30.0, 35.0) and 30.0 in sim._spans
+        seen.append(st.system.temperature_c)
+        fresh = NewmarkStepper(st.system, sim.specs, sim.effects, locate_events=sim.locate_events)
+        fresh.modal_cutoff_hz = st.modal_cutoff_hz
+        fresh.exact_map = st.exact_map
+        assert st.modal_cutoff_hz is not None and st.exact_map == (rig != "paper")
+        fresh.set_operating_point(st.map.basis.omega, st.map.dt, sim.state)
+        for obj, ref in ((st.map, fresh.map), (st.gear, fresh.gear)):
+            a, b = _flat(obj), _flat(ref)
+            assert a.keys() == b.keys()
+            for k in b:
+                scale = np.max(np.abs(b[k])) if b[k].size else 0.0
+                assert np.max(np.abs(a[k] - b[k]), initial=0.0) <= 1e-9 * scale, k
+    assert seen[1] == seen[0] + TEMPERATURE_QUANTUM_C  # two quanta of the same span
 
 
 def test_thermal_load_per_material_equals_assembly() -> None:
-    """ThermalLoad (one modulus evaluation per material) equals the element loop of the assembly."""
+    """ThermalLoad (one modulus evaluation per material, memoised per temperature) equals the element
+    loop of the assembly, on a second call and after a pickle round trip (the memo is keyed by id())."""
     cfg = paper_gearbox()
     model = ThermalLoad(cfg)
     assert model.units is not None
     for t in (25.0, 87.3, 125.0):
         ref = GearRotorSystem.from_config(cfg, t).thermal_load
-        assert np.linalg.norm(model(t) - ref) <= 1e-12 * max(np.linalg.norm(ref), 1.0)
+        for m in (model, model, pickle.loads(pickle.dumps(model))):
+            assert np.linalg.norm(m(t) - ref) <= 1e-12 * max(np.linalg.norm(ref), 1.0)
 
 
 def test_interpolated_node_system_against_assembly() -> None:

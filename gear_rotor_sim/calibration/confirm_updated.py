@@ -28,7 +28,8 @@ baseline is updated, not diagnosed)*.
   the baseline again on the model with the offset.
   Against a held reference (``--baseline``) the baseline is not re-fitted: the held model *is* the
   updated one, and the confirmation scores it with the reference's carrier tolerance (the model-form
-  floor the rounds use), which the screen did not.
+  floor the rounds use), which the screen did not; where the held machine refuses it, the offset is judged
+  on the record's own baseline as without a reference (``temperature_reference.py``, Sec. 8.79).
 * :func:`updated_baseline_step` -- a round on the nominal model where no candidate passes the
   acceptance rules: the best baseline set by Delta BIC is verified (full simulation) and taken if it
   still beats the BIC threshold and moves no channel mean that is off further away; the search then
@@ -318,6 +319,14 @@ def judge_screened_offset(
         f"{conf.error_with:.3g}: " + ("confirmed" if ok else "not confirmed") + " (Sec. 8.31)"
     )
     cal.log(cal.notes[-1])
+    from gear_rotor_sim.calibration import temperature_reference
+
+    if not ok and temperature_reference.applies(cal):
+        # against a held reference: judged on this record's own baseline (temperature_reference.py, Sec. 8.79)
+        conf = temperature_reference.judge_on_own_baseline(cal, offset)
+        ok = conf.confirmed(cal.fit.bic_threshold, cal.fit.min_explained)
+        cal.notes.append(temperature_reference.note(offset, conf, ok))
+        cal.log(cal.notes[-1])
     return (conf.delta_bic, conf.explained) if ok else None
 
 

@@ -283,6 +283,9 @@ class Calibrator(ModelAccess, Screening, CandidateFitting, Verification, Refinem
         self.rattle_wear_reading: dict[str, Any] | None = None
         #: a damaged tooth's path in contact (opt-in ``tooth_path_in_contact``); set by ``run``
         self._tooth_path: np.ndarray | None = None
+        #: per tooth candidate label: the search's whole-record and DTE low-order rankings
+        #: (``candidates_tooth_index.py``; set by ``_fit_tooth`` in contact with a DTE)
+        self._low_order_index: dict[str, Any] = {}
         #: baseline parameter sets in force (fixed when given, else fitted on this record first)
         self.baseline: list[Effect] = list(baseline or [])
         self.fit_baseline = baseline is None

@@ -17,6 +17,8 @@ from gear_rotor_sim.calibration.candidates_crack import fit_shaft_crack
 from gear_rotor_sim.calibration.candidates_misalignment import (
     fit_gear_misalignment,
 )
+from gear_rotor_sim.calibration.candidates_tooth_index import low_order_index_applies, rank_low_orders
+from gear_rotor_sim.calibration.candidates_tooth_path import low_order_mesh_chi2
 from gear_rotor_sim.calibration.envelope_scatter import scatter_applies, with_scatter
 from gear_rotor_sim.calibration.fault_path import (
     channels_chi2,
@@ -75,9 +77,17 @@ class CandidateFitting:
         return float(math.sqrt(2.0 * red / curv)) if curv > 0 else float("inf")
 
     def _fit_phase_amplitude(
-        self, e: Effect, cur: ModelFeatures, ref: float | None = None
+        self,
+        e: Effect,
+        cur: ModelFeatures,
+        ref: float | None = None,
+        select: list[list[np.ndarray]] | None = None,
     ) -> CandidateFit | None:
-        """Amplitude and phase from two basis runs at amplitude ``ref`` (default a tenth of the bound)."""
+        """Amplitude and phase from two basis runs at amplitude ``ref`` (default a tenth of the bound).
+
+        ``select[c][s]`` (optional): the order features of channel ``c`` on shaft ``s`` that the least
+        squares read (a misaligned wheel's axial line, ``candidates_misalignment.axial_low_orders``); the
+        candidate is scored on every feature as always."""
         amp, ph = e.specs[0], e.specs[1]
         ref = 0.1 * amp.upper if ref is None else ref
         f0 = self._signature(e.with_parameters(**{amp.name: ref, ph.name: 0.0})).scaled(1.0 / ref)
@@ -101,6 +111,8 @@ class CandidateFitting:
                     gc = self.cmp.order_gain(g, ci, s)
                     model = gc * (cur.order[ci][s] + c[0] * f0.order[ci][s] + c[1] * f1.order[ci][s])
                     w = 2.0 / self.cmp.order_sigma2(ci, s, model)
+                    if select is not None:
+                        w = np.where(select[ci][s], w, 0.0)
                     r = self.cmp.d_order[ci][s] - gc * cur.order[ci][s]
                     cols = [gc * f0.order[ci][s], gc * f1.order[ci][s]]
                     for i in range(2):
@@ -282,11 +294,24 @@ class CandidateFitting:
             # where the teeth separate the tooth comes from the channels at the mesh (fault_path.py)
             return self._chi2(f) if at_mesh is None else channels_chi2(self.cmp, f, at_mesh)
 
+        # in contact with a DTE: every tooth ranked by the low orders at the mesh too, on the same shifted
+        # signatures (candidates_tooth_index.py); the refinement compares the teeth where it decides
+        low_shaft = low_order_index_applies(self, e) if mask is None else None
+        whole_v, low_v = np.full(z, np.inf), np.full(z, np.inf)
         for i in range(z):
-            v = min(index_chi2(cur.combo(sig(d, i), 1.0)) for d in (0.2, 0.45))
+            feats_i = [cur.combo(sig(d, i), 1.0) for d in (0.2, 0.45)]
+            v = min(index_chi2(f) for f in feats_i)
+            whole_v[i] = v
+            if low_shaft is not None:
+                low_v[i] = min(low_order_mesh_chi2(self, f, low_shaft) for f in feats_i)
             if v < best[0]:
                 best = (v, i)
         i_best = best[1]
+        self._low_order_index.pop(e.label, None)
+        if low_shaft is not None:
+            self._low_order_index[e.label] = rank_low_orders(
+                low_v, whole_v, low_order_mesh_chi2(self, cur, low_shaft)
+            )
 
         def obj(d: float) -> float:
             return self._param_chi2(cur.combo(sig(d, i_best), 1.0), e)

@@ -27,6 +27,12 @@ from gear_rotor_sim.calibration.candidates_tooth_dte import (
     refine_depth_by_dte,
     take_dte_depth,
 )
+from gear_rotor_sim.calibration.candidates_tooth_index import (
+    decisive,
+    index_note,
+    low_order_index_applies,
+    teeth_to_compare,
+)
 from gear_rotor_sim.calibration.candidates_tooth_path import (
     low_order_mesh_chi2,
     low_order_shaft,
@@ -277,6 +283,14 @@ class Refinement:
             at_mesh = None
         # in contact, opt-in: by the DTE's low orders of the wheel (candidates_tooth_path.py, Sec. 8.35)
         low = low_order_shaft(self, e) if at_mesh is None else None
+        # in contact with a DTE, where the search's two rankings disagree decisively: the whole record's
+        # tooth, the DTE's and the latter's neighbours, by the low orders (candidates_tooth_index.py)
+        ranks = self._low_order_index.get(e.label) if at_mesh is None else None
+        if ranks is not None and ranks.whole_tooth == e.tooth and decisive(ranks, self.fit.bic_threshold):
+            low = low_order_index_applies(self, e)
+            if low is not None:
+                teeth = dict.fromkeys(teeth_to_compare(ranks, z))
+                self.notes.append(index_note(e.label, ranks))
         scored = []
         for t in teeth:
             cand = dataclasses.replace(e, tooth=t)

@@ -76,7 +76,8 @@ class FitSettings:
     #: a gear misalignment judged on the axial bearing forces, which carry its angle: its share of their
     #: excess counts as its own family's in contact too, its angle is refined on their order chi^2, and
     #: baseline sets (no axial line at the wheel's order 1) are not its runner-up
-    #: (``candidates_misalignment.py``, Sec. 8.38); False: as in session 14
+    #: (``candidates_misalignment.py``, Sec. 8.38), and its angle and phase are read from those forces' orders
+    #: below half the mesh frequency (Sec. 8.80); False: as in session 14
     misalignment_axial: bool = True
     #: a named tooth's DTE depth read with the gear pair's inertia (mesh mode held) at which its DTE comb
     #: and its sideband energy ratios agree, where the record's own mesh set is in the baseline
@@ -103,6 +104,10 @@ class FitSettings:
     #: reference is set aside and the record diagnosed with its own baseline (``reference_point.py``,
     #: Sec. 8.77); False: the reference held whatever it scores
     reference_point_check: bool = True
+    #: against a held reference: a screened temperature offset the held machine refuses (its means matched)
+    #: judged on this record's own baseline, as without a reference (``temperature_reference.py``,
+    #: Sec. 8.79); False: the held machine's refusal stands
+    offset_on_own_baseline: bool = True
 
 
 @dataclass

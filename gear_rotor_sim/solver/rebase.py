@@ -75,6 +75,7 @@ class ThermalLoad:
         self._elements = [(np.arange(6 * node0, 6 * node0 + 12), el) for _, node0, el in shaft_elements(cfg)]
         mats: dict[int, Any] = {id(el.material): el.material for _, el in self._elements}
         self.units: list[tuple[Any, np.ndarray]] | None = None
+        self._moduli: dict[tuple[int, float], float] = {}
         t1, t2 = self.reference_c + 100.0, self.reference_c + 50.0
         try:
             units = []
@@ -91,6 +92,23 @@ class ThermalLoad:
         except ValueError:  # a material policy that refuses the check temperatures
             self.units = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_moduli"] = {}  # keyed by id(): not valid in another process
+        return state
+
+    def modulus(self, mat: Any, temperature_c: float) -> float:
+        """``mat.youngs_modulus(temperature_c)``, memoised per material and temperature (a ramp asks for
+        the same fine quanta and nodes again and again)."""
+        key = (id(mat), float(temperature_c))
+        hit = self._moduli.get(key)
+        if hit is None:
+            hit = mat.youngs_modulus(temperature_c)
+            if len(self._moduli) >= 4096:
+                self._moduli.clear()
+            self._moduli[key] = hit
+        return hit
+
     def _direct(self, temperature_c: float) -> np.ndarray:
         out = np.zeros(self.ndof)
         for idx, el in self._elements:
@@ -104,7 +122,7 @@ class ThermalLoad:
         dt = float(temperature_c) - self.reference_c
         out = np.zeros(self.ndof)
         for mat, u in self.units:
-            out += (mat.youngs_modulus(temperature_c) * dt) * u
+            out += (self.modulus(mat, temperature_c) * dt) * u
         return out
 
 
@@ -297,25 +315,36 @@ def _diff(a: Any, b: Any) -> Any:
     return None
 
 
-def _apply(a: Any, diffs: Sequence[tuple[float, Any]]) -> Any:
-    """``a + sum c d`` for the (coefficient, difference) pairs of :func:`_diff` (new arrays, aligned)."""
-    live = [(c, d) for c, d in diffs if d is not None]
+def _template(a: Any, diffs: Sequence[Any], out: list[tuple[np.ndarray, np.ndarray, list]]) -> Any:
+    """A copy of the map ``a`` whose arrays that any of ``diffs`` (:func:`_diff`, one per coefficient)
+    changes are new aligned buffers; appends ``(buffer, base, [(k, d_k)])`` to ``out`` for each, so that
+    :func:`_fill` sets ``a + sum_k c_k d_k`` in place (the operations of a copy of ``a`` corrected term
+    by term, in the same order: bit for bit the arrays a new map per quantum held)."""
+    live = [(k, d) for k, d in enumerate(diffs) if d is not None]
     if not live:
         return a
     if isinstance(a, np.ndarray):
-        out = aligned(a)
-        for c, d in live:
-            if c != 0.0:
-                out += c * d
-        return out
+        buf = aligned(a)
+        out.append((buf, a, live))
+        return buf
     if isinstance(a, tuple):
-        return tuple(_apply(x, [(c, d[i]) for c, d in live]) for i, x in enumerate(a))
+        return tuple(_template(x, [None if d is None else d[i] for d in diffs], out) for i, x in enumerate(a))
     changes = {}
     for name in {k for _, d in live for k in d}:
-        changes[name] = _apply(getattr(a, name), [(c, d.get(name)) for c, d in live])
+        changes[name] = _template(getattr(a, name), [None if d is None else d.get(name) for d in diffs], out)
     if any(f.name == "xrec" for f in dataclasses.fields(a)):
-        changes["xrec"] = None  # rebuilt from the new arrays on first use
+        changes["xrec"] = None
     return dataclasses.replace(a, **changes)
+
+
+def _fill(entries: Sequence[tuple[np.ndarray, np.ndarray, list]], coefs: Sequence[float]) -> None:
+    """``buffer = base + sum_k c_k d_k`` for the entries of :func:`_template`, in place."""
+    for buf, base, live in entries:
+        np.copyto(buf, base)
+        for k, d in live:
+            c = coefs[k]
+            if c != 0.0:
+                buf += c * d
 
 
 class RampSpan:
@@ -353,6 +382,8 @@ class RampSpan:
         self._key: tuple[float, float, float | None, bool] | None = None
         self._base: tuple[Any, Any] | None = None
         self._diffs: list[tuple[Any, Any]] = []
+        self._entries: list[tuple[np.ndarray, np.ndarray, list]] = []
+        self._maps: tuple[Any, Any] = (None, None)
         self._scales: list[float] = []
 
     def _new_stepper(self, system: AssembledSystem) -> NewmarkStepper:
@@ -365,8 +396,8 @@ class RampSpan:
         ref = self.thermal.reference_c
         cs = [
             (
-                mat.youngs_modulus(temperature_c) * (temperature_c - ref)
-                - mat.youngs_modulus(t_n) * (t_n - ref)
+                self.thermal.modulus(mat, temperature_c) * (temperature_c - ref)
+                - self.thermal.modulus(mat, t_n) * (t_n - ref)
             )
             / sc
             for (mat, _), sc in zip(self.thermal.units, self._scales, strict=True)  # type: ignore[arg-type]
@@ -414,6 +445,12 @@ class RampSpan:
                 maps.append((a_map, gear))
         self._base = maps[0]
         self._diffs = [(_diff(maps[0][0], m[0]), _diff(maps[0][1], m[1])) for m in maps[1:]]
+        # the corrected maps' buffers, filled in place at each quantum (retarget)
+        self._entries = []
+        self._maps = (
+            _template(maps[0][0], [d[0] for d in self._diffs], self._entries),
+            _template(maps[0][1], [d[1] for d in self._diffs], self._entries),
+        )
         self._key = (omega, dt, cut, exact)
 
     def retarget(
@@ -438,9 +475,9 @@ class RampSpan:
         carry = carry and st.map.exact == self._base[0].exact  # type: ignore[index]
         carry = carry and self._base is not None and st.map.basis is self._base[0].basis
         coefs = self._coefficients(system.temperature_c)
-        base_map, base_gear = self._base  # type: ignore[misc]
-        st.map = _apply(base_map, [(c, d[0]) for c, d in zip(coefs, self._diffs, strict=True)])
-        st.gear = _apply(base_gear, [(c, d[1]) for c, d in zip(coefs, self._diffs, strict=True)])
+        _fill(self._entries, coefs)
+        st.map, st.gear = self._maps
+        st.map.xrec = None  # rebuilt from the new arrays on first use
         st.system = system
         st.lin = ramp_linear_model(self.near.lin, system, self.effects)
         st.modal_cutoff_hz = cut
