@@ -36,13 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gear_rotor_sim.calibration.fault_path import (
-    axial_channels,
-    channels_chi2,
-    channels_excess,
-    order_terms,
-    with_path,
-)
+from gear_rotor_sim.calibration.fault_path import axial_channels, channels_chi2, channels_excess, with_path
 from gear_rotor_sim.faults import Effect, GearMisalignment
 
 if TYPE_CHECKING:
@@ -171,15 +165,7 @@ def axial_chi2(cal: Calibrator, feats: ModelFeatures) -> float:
     Where the teeth separate ``Calibrator._param_chi2`` already judges on these channels (the others'
     path fitted).
     """
-    sel = axial_low_orders(cal.cmp)
-    if sel is None:
-        return channels_chi2(cal.cmp, feats, axial_channels(cal.cmp.names))
-    out = 0.0
-    for c in np.flatnonzero(axial_channels(cal.cmp.names)):
-        for s in range(len(cal.cmp.shafts)):
-            v = order_terms(cal.cmp, feats, c, s)
-            out += 2.0 * float(np.sum(v[sel[c][s] & np.isfinite(v)]))
-    return out
+    return channels_chi2(cal.cmp, feats, axial_channels(cal.cmp.names), select=axial_low_orders(cal.cmp))
 
 
 def misalignment_path(names: Sequence[str]) -> np.ndarray:

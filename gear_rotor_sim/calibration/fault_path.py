@@ -127,14 +127,18 @@ def order_terms(cmp: Any, feats: ModelFeatures, c: int, s: int) -> np.ndarray:
     return np.abs(cmp.d_order[c][s] - m) ** 2 / cmp.order_sigma2(c, s, m)
 
 
-def channels_chi2(cmp: Any, feats: ModelFeatures, mask: np.ndarray) -> float:
+def channels_chi2(
+    cmp: Any, feats: ModelFeatures, mask: np.ndarray, select: list[list[np.ndarray]] | None = None
+) -> float:
     """Order chi^2 of the channels in ``mask`` on every shaft (gains held at 1, no time shift; left-out
-    features have no weight)."""
+    features have no weight); ``select[c][s]`` (optional) keeps only those orders of channel ``c`` on shaft
+    ``s``."""
     out = 0.0
     for c in np.flatnonzero(mask):
         for s in range(len(cmp.shafts)):
             v = order_terms(cmp, feats, c, s)
-            out += 2.0 * float(np.sum(v[np.isfinite(v)]))
+            keep = np.isfinite(v) if select is None else select[c][s] & np.isfinite(v)
+            out += 2.0 * float(np.sum(v[keep]))
     return out
 
 

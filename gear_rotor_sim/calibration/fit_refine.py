@@ -289,7 +289,7 @@ class Refinement:
         if ranks is not None and ranks.whole_tooth == e.tooth and decisive(ranks, self.fit.bic_threshold):
             low = low_order_index_applies(self, e)
             if low is not None:
-                teeth = dict.fromkeys(teeth_to_compare(ranks, z))
+                teeth = teeth_to_compare(ranks, z)
                 self.notes.append(index_note(e.label, ranks))
         scored = []
         for t in teeth:
